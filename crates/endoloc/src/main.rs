@@ -1,0 +1,44 @@
+//! `endoloc`: image-based colonoscope localization from the command line.
+//!
+//! The binary is a thin shell: each subcommand lives in `cmd/<name>.rs`, turns its raw
+//! arguments into a validated library config, runs the library, and reports.
+
+mod cmd;
+mod ui;
+
+use clap::{Parser, Subcommand};
+
+/// Tell where a colonoscope is inside the colon from the images it sees.
+///
+/// Typical flow: `simulate` (or import) a dataset with known poses, inspect it with
+/// `dataset info`/`dataset check`, then train, map, localize and evaluate.
+#[derive(Debug, Parser)]
+#[command(name = "endoloc", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    /// More log output (-v info, -vv debug); errors and warnings are always shown.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    Simulate(cmd::simulate::Args),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    ui::init_logging(cli.verbose);
+    let result = match cli.command {
+        Command::Simulate(args) => cmd::simulate::run(args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

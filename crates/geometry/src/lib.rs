@@ -1,0 +1,11 @@
+//! Geometry core of endoloc.
+//!
+//! Conventions used by every endoloc crate (`DESIGN.md`): lengths in millimetres; poses are
+//! `T_wc` (camera-to-world); OpenCV camera axes (x right, y down, z forward); pixel origin at
+//! the centre of the top-left pixel.
+
+pub mod camera;
+pub mod pose;
+
+pub use camera::{Camera, Distortion};
+pub use pose::{Pose, canonical_quaternion, orientation_error_deg, position_error_mm};
