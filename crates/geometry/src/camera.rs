@@ -185,10 +185,7 @@ impl Camera {
     /// Normalized undistorted coordinates `(x/z, y/z)` of a pixel; `None` when the distortion
     /// cannot be inverted there.
     pub fn normalized(&self, pixel: &Point2<f64>) -> Option<Vector2<f64>> {
-        let xd = Vector2::new(
-            (pixel.x - self.cx) / self.fx,
-            (pixel.y - self.cy) / self.fy,
-        );
+        let xd = Vector2::new((pixel.x - self.cx) / self.fx, (pixel.y - self.cy) / self.fy);
         self.distortion.undistort(xd)
     }
 
@@ -285,5 +282,81 @@ mod tests {
         assert!(s.contains("\"model\":\"fisheye\""), "{s}");
         let back: Camera = serde_json::from_str(&s).unwrap();
         assert_eq!(back, cam);
+    }
+}
+
+#[cfg(test)]
+mod proptests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn camera_strategy() -> impl Strategy<Value = Camera> {
+        let dist = prop_oneof![
+            Just(Distortion::None),
+            (
+                -0.3f64..0.1,
+                -0.05f64..0.1,
+                -0.002f64..0.002,
+                -0.002f64..0.002,
+                -0.01f64..0.01
+            )
+                .prop_map(|(k1, k2, p1, p2, k3)| Distortion::RadialTangential {
+                    k1,
+                    k2,
+                    p1,
+                    p2,
+                    k3
+                }),
+            (
+                -0.2f64..0.1,
+                -0.02f64..0.02,
+                -0.01f64..0.01,
+                -0.005f64..0.005
+            )
+                .prop_map(|(k1, k2, k3, k4)| Distortion::Fisheye { k1, k2, k3, k4 }),
+        ];
+        (60.0f64..110.0, dist).prop_map(|(hfov, d)| {
+            let mut c = Camera::from_hfov(640, 480, hfov);
+            c.distortion = d;
+            c
+        })
+    }
+
+    proptest! {
+        /// A point within 35° of the optical axis (where all these lens models are monotonic)
+        /// projects to a pixel that unprojects onto it at its depth.
+        #[test]
+        fn project_then_unproject_returns_the_point(
+            cam in camera_strategy(),
+            off_axis_deg in 0.0f64..35.0,
+            azimuth in 0.0f64..std::f64::consts::TAU,
+            z in 1.0f64..200.0,
+        ) {
+            let r = off_axis_deg.to_radians().tan();
+            let p = Point3::new(r * azimuth.cos() * z, r * azimuth.sin() * z, z);
+            let px = cam.project(&p).unwrap();
+            let back = cam.unproject(&px, z);
+            prop_assert!(back.is_some(), "{p:?} -> {px:?} not invertible for {cam:?}");
+            prop_assert!((back.unwrap() - p).norm() < 1e-8 * z, "{p:?} -> {px:?} -> {back:?}");
+            let ray = cam.ray(&px).unwrap();
+            prop_assert!((ray - p.coords.normalize()).norm() < 1e-9);
+        }
+
+        /// Wherever a pixel can be unprojected (some strong lenses do not reach the image
+        /// corners), the unprojected point projects back onto that pixel.
+        #[test]
+        fn unproject_then_project_returns_the_pixel(
+            cam in camera_strategy(),
+            u in 0.0f64..639.0,
+            v in 0.0f64..479.0,
+            z in 1.0f64..200.0,
+        ) {
+            let px = Point2::new(u, v);
+            if let Some(p) = cam.unproject(&px, z) {
+                prop_assert!((p.z - z).abs() < 1e-12);
+                let back = cam.project(&p).unwrap();
+                prop_assert!((back - px).norm() < 1e-6, "{px:?} -> {p:?} -> {back:?}");
+            }
+        }
     }
 }

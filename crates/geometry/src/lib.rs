@@ -6,6 +6,12 @@
 
 pub mod camera;
 pub mod pose;
+pub mod rotation_mean;
+pub mod se3;
+pub mod so3;
 
 pub use camera::{Camera, Distortion};
 pub use pose::{Pose, canonical_quaternion, orientation_error_deg, position_error_mm};
+pub use rotation_mean::{
+    GeodesicMedianConfig, RotationMeanError, chordal_mean, geodesic_median, zone_median_pose,
+};
