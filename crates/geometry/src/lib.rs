@@ -6,12 +6,19 @@
 
 pub mod camera;
 pub mod pose;
+pub mod reprojection;
 pub mod rotation_mean;
 pub mod se3;
 pub mod so3;
+pub mod synthetic;
+pub mod triangulate;
 
 pub use camera::{Camera, Distortion};
 pub use pose::{Pose, canonical_quaternion, orientation_error_deg, position_error_mm};
 pub use rotation_mean::{
     GeodesicMedianConfig, RotationMeanError, chordal_mean, geodesic_median, zone_median_pose,
+};
+pub use triangulate::{
+    Observation, TriangulatedPoint, TriangulationConfig, TriangulationError, Triangulator,
+    triangulate_track, triangulate_tracks,
 };
