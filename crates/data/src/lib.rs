@@ -1,6 +1,19 @@
 //! endoloc's data layer: the dataset format v1 (`DESIGN.md`), trajectories, anatomy labels,
 //! and import of colon surface meshes and mid-line paths.
+//!
+//! Conventions: lengths in millimetres, poses `T_wc` (camera-to-world), timestamps in seconds.
 
 pub mod anatomy;
+pub mod dataset;
+pub mod error;
+mod fsutil;
+pub mod png_io;
+pub mod sections_csv;
+pub mod trajectory;
 
 pub use anatomy::Section;
+pub use dataset::{Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, Sequence, SequenceWriter};
+pub use error::DataError;
+pub use png_io::{MAX_DEPTH_MM, depth_code_from_mm, depth_mm_from_code};
+pub use sections_csv::{read_sections, write_sections};
+pub use trajectory::{StampedPose, read_tum, write_tum};

@@ -1,0 +1,161 @@
+//! TUM trajectory files: one line `timestamp tx ty tz qx qy qz qw` per pose, `#` comments.
+//!
+//! Poses are `T_wc` (camera-to-world), translations in millimetres, timestamps in seconds,
+//! quaternions Hamilton `qx qy qz qw` (DESIGN.md). Files written here are read unchanged by
+//! other TUM tools (e.g. `evo`).
+
+use crate::DataError;
+use crate::fsutil::{read_text, write_atomic};
+use endoloc_geometry::{Pose, canonical_quaternion};
+use nalgebra::{Quaternion, Translation3, UnitQuaternion};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Largest accepted deviation of a stored quaternion's norm from 1 (it is then normalized).
+pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
+
+/// What every pose line must hold, quoted in parse errors.
+pub(crate) const TUM_COLUMNS: &str = "timestamp tx ty tz qx qy qz qw";
+
+/// A pose with its time stamp.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StampedPose {
+    /// Time stamp, seconds.
+    pub timestamp_s: f64,
+    /// Camera-to-world pose `T_wc`, translation in mm.
+    pub pose: Pose,
+}
+
+/// Parses one non-comment, non-blank TUM line; the error message says what was expected.
+pub(crate) fn parse_tum_line(line: &str) -> Result<StampedPose, String> {
+    let cols: Vec<&str> = line.split_whitespace().collect();
+    if cols.len() != 8 {
+        return Err(format!(
+            "expected 8 columns: {TUM_COLUMNS}; found {}",
+            cols.len()
+        ));
+    }
+    const NAMES: [&str; 8] = ["timestamp", "tx", "ty", "tz", "qx", "qy", "qz", "qw"];
+    let mut v = [0.0f64; 8];
+    for (i, c) in cols.iter().enumerate() {
+        let x: f64 = c
+            .parse()
+            .map_err(|_| format!("column {} ({}): {c:?} is not a number", i + 1, NAMES[i]))?;
+        if !x.is_finite() {
+            return Err(format!(
+                "column {} ({}): {c} is not finite; expected a finite number",
+                i + 1,
+                NAMES[i]
+            ));
+        }
+        v[i] = x;
+    }
+    let q = Quaternion::new(v[7], v[4], v[5], v[6]);
+    let norm = q.norm();
+    if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+        return Err(format!(
+            "quaternion (qx qy qz qw) has norm {norm:.6}; expected a unit quaternion (norm within {QUATERNION_NORM_TOLERANCE} of 1)"
+        ));
+    }
+    let rotation = UnitQuaternion::from_quaternion(q);
+    Ok(StampedPose {
+        timestamp_s: v[0],
+        pose: Pose::from_parts(Translation3::new(v[1], v[2], v[3]), rotation),
+    })
+}
+
+/// Parses TUM text; `Err((line, message))` at the first bad line (1-based).
+pub(crate) fn parse_tum_text(text: &str) -> Result<Vec<StampedPose>, (usize, String)> {
+    let mut poses = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        poses.push(parse_tum_line(t).map_err(|m| (i + 1, m))?);
+    }
+    Ok(poses)
+}
+
+/// Reads a TUM trajectory file.
+///
+/// Blank lines and lines starting with `#` are skipped. Every other line must have exactly 8
+/// finite numbers; the quaternion must have a norm within [`QUATERNION_NORM_TOLERANCE`] of 1
+/// and is normalized.
+///
+/// # Errors
+/// [`DataError::Io`] if the file cannot be read; [`DataError::Parse`] naming the first bad
+/// line and what was expected.
+pub fn read_tum(path: &Path) -> Result<Vec<StampedPose>, DataError> {
+    let text = read_text(path)?;
+    parse_tum_text(&text).map_err(|(line, message)| DataError::parse(path, line, message))
+}
+
+/// Formats poses as TUM text with a header comment (see [`write_tum`]).
+///
+/// # Errors
+/// A message naming the first pose (0-based) with a non-finite value.
+pub(crate) fn format_tum(poses: &[StampedPose]) -> Result<String, String> {
+    let mut s = String::with_capacity(64 + poses.len() * 120);
+    s.push_str(
+        "# endoloc trajectory (TUM): timestamp[s] tx ty tz[mm] qx qy qz qw; T_wc camera-to-world\n",
+    );
+    for (i, p) in poses.iter().enumerate() {
+        let t = p.pose.translation.vector;
+        let q = canonical_quaternion(p.pose.rotation);
+        let all = [p.timestamp_s, t.x, t.y, t.z, q.i, q.j, q.k, q.w];
+        if !all.iter().all(|v| v.is_finite()) {
+            return Err(format!("pose {i} has a non-finite value: {all:?}"));
+        }
+        // 9 decimals for mm (nm resolution), 12 for the quaternion: reading gives back the
+        // pose to better than 1e-9 in every component.
+        let _ = writeln!(
+            s,
+            "{:.6} {:.9} {:.9} {:.9} {:.12} {:.12} {:.12} {:.12}",
+            p.timestamp_s, t.x, t.y, t.z, q.i, q.j, q.k, q.w
+        );
+    }
+    Ok(s)
+}
+
+/// Writes a TUM trajectory file atomically (temporary file in the same folder, flushed, then
+/// renamed), with a header comment. Quaternions are written with `qw ≥ 0`; timestamps with
+/// microsecond resolution, translations (mm) with 9 decimals and quaternions with 12.
+///
+/// # Errors
+/// [`DataError::Invalid`] if a pose holds a non-finite value (nothing is written);
+/// [`DataError::Io`] if writing fails.
+pub fn write_tum(path: &Path, poses: &[StampedPose]) -> Result<(), DataError> {
+    let text = format_tum(poses).map_err(|m| DataError::invalid(path, m))?;
+    write_atomic(path, text.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_errors_say_what_was_expected() {
+        let e = parse_tum_line("0 1 2 3 0 0 0").unwrap_err();
+        assert!(
+            e.contains("expected 8 columns") && e.contains("found 7"),
+            "{e}"
+        );
+        let e = parse_tum_line("0 1 2 3 0 0 0 2").unwrap_err();
+        assert!(e.contains("norm 2.000000"), "{e}");
+        let e = parse_tum_line("0 1 x 3 0 0 0 1").unwrap_err();
+        assert!(e.contains("column 3 (ty)"), "{e}");
+        let e = parse_tum_line("0 1 2 inf 0 0 0 1").unwrap_err();
+        assert!(
+            e.contains("column 4 (tz)") && e.contains("not finite"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn slightly_off_quaternion_is_normalized() {
+        let p = parse_tum_line("0.5 1 2 3 0 0 0 1.0005").unwrap();
+        assert!((p.pose.rotation.into_inner().norm() - 1.0).abs() < 1e-12);
+        assert_eq!(p.timestamp_s, 0.5);
+    }
+}
