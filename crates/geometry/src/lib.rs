@@ -6,6 +6,7 @@
 
 pub mod camera;
 pub mod pose;
+pub mod refine_pose;
 pub mod reprojection;
 pub mod rotation_mean;
 pub mod se3;
@@ -15,6 +16,7 @@ pub mod triangulate;
 
 pub use camera::{Camera, Distortion};
 pub use pose::{Pose, canonical_quaternion, orientation_error_deg, position_error_mm};
+pub use refine_pose::{PoseEstimate, RefineConfig, RefineError, RobustKernel, refine_pose};
 pub use rotation_mean::{
     GeodesicMedianConfig, RotationMeanError, chordal_mean, geodesic_median, zone_median_pose,
 };

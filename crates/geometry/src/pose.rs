@@ -28,6 +28,32 @@ pub fn position_error_mm(est: &Pose, gt: &Pose) -> f64 {
 }
 
 /// Orientation error: geodesic angle of `R_estᵀ R_gt`, degrees, in `[0, 180]`.
+///
+/// Computed as `2·atan2(‖v‖, |w|)` of the relative quaternion, which stays accurate for tiny
+/// angles (an `acos(w)` formula cannot resolve angles below ~1e-6°).
 pub fn orientation_error_deg(est: &Pose, gt: &Pose) -> f64 {
-    est.rotation.angle_to(&gt.rotation).to_degrees()
+    crate::so3::geodesic_distance(&est.rotation, &gt.rotation).to_degrees()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression: `angle_to` (acos-based) returned 0 or ~1e-6° for rotations 1e-9 rad apart.
+    #[test]
+    fn orientation_error_resolves_tiny_angles() {
+        let a = Pose::identity();
+        let b = pose_from_parts(
+            Vector3::zeros(),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 1e-9),
+        );
+        let e = orientation_error_deg(&a, &b);
+        assert!((e - 1e-9f64.to_degrees()).abs() < 1e-20, "{e}");
+        let c = pose_from_parts(
+            Vector3::new(3.0, 4.0, 0.0),
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 3.0),
+        );
+        assert!((orientation_error_deg(&a, &c) - 3.0f64.to_degrees()).abs() < 1e-12);
+        assert!((position_error_mm(&a, &c) - 5.0).abs() < 1e-15);
+    }
 }
