@@ -5,6 +5,8 @@
 //! the centre of the top-left pixel.
 
 pub mod camera;
+pub mod localize;
+pub mod pnp;
 pub mod pose;
 pub mod refine_pose;
 pub mod reprojection;
@@ -13,8 +15,11 @@ pub mod se3;
 pub mod so3;
 pub mod synthetic;
 pub mod triangulate;
+pub mod validity;
 
 pub use camera::{Camera, Distortion};
+pub use localize::{Localization, LocalizeConfig, LocalizeError, localize_pose};
+pub use pnp::{RansacConfig, RansacError, RansacPose, ransac_pnp};
 pub use pose::{Pose, canonical_quaternion, orientation_error_deg, position_error_mm};
 pub use refine_pose::{PoseEstimate, RefineConfig, RefineError, RobustKernel, refine_pose};
 pub use rotation_mean::{
@@ -24,3 +29,4 @@ pub use triangulate::{
     Observation, TriangulatedPoint, TriangulationConfig, TriangulationError, Triangulator,
     triangulate_track, triangulate_tracks,
 };
+pub use validity::{Reason, Status, ValidityConfig, Verdict};

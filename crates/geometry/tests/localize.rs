@@ -1,0 +1,195 @@
+//! RANSAC PnP, the validity check and `localize_pose` on synthetic scenes with known truth.
+
+use endoloc_geometry::synthetic::{PnpSceneConfig, perturb_pose, pnp_scene};
+use endoloc_geometry::{
+    LocalizeConfig, LocalizeError, RansacConfig, Reason, Status, localize_pose,
+    orientation_error_deg, position_error_mm, ransac_pnp,
+};
+use nalgebra::{Point2, Point3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+#[test]
+fn status_words_match_frames_csv() {
+    assert_eq!(Status::Refined.to_string(), "refined");
+    assert_eq!(Status::InitOnly.to_string(), "init_only");
+    assert_eq!(Status::Rejected.to_string(), "rejected");
+    let r = Reason::RmsTooHigh {
+        rms_px: 4.5,
+        max_px: 3.0,
+    };
+    assert_eq!(r.code(), "rms_too_high");
+    assert!(!r.to_string().contains(','));
+}
+
+#[test]
+fn ransac_finds_the_pose_under_noise_and_30_percent_outliers() {
+    for seed in 0..20 {
+        let s = pnp_scene(&PnpSceneConfig::default(), 1000 + seed);
+        let cfg = RansacConfig {
+            seed,
+            ..Default::default()
+        };
+        let r = ransac_pnp(&s.points_world, &s.pixels, &s.camera, &cfg).unwrap();
+        assert!(
+            position_error_mm(&r.t_wc, &s.t_wc) < 5.0,
+            "seed {seed}: {} mm",
+            position_error_mm(&r.t_wc, &s.t_wc)
+        );
+        assert!(orientation_error_deg(&r.t_wc, &s.t_wc) < 3.0);
+        // Most true inliers agree with the minimal-sample pose; the adaptive count stays small.
+        assert!(r.inlier_count > 100, "{} inliers", r.inlier_count);
+        assert!(r.iterations < 200, "{} iterations", r.iterations);
+        // Same seed, same answer.
+        let again = ransac_pnp(&s.points_world, &s.pixels, &s.camera, &cfg).unwrap();
+        assert_eq!(again, r);
+    }
+}
+
+#[test]
+fn bad_priors_30_degrees_and_20_mm_off_are_recovered() {
+    let cfg = LocalizeConfig::new();
+    for seed in 0..20 {
+        let s = pnp_scene(&PnpSceneConfig::default(), 2000 + seed);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let prior = perturb_pose(&s.t_wc, 30.0, 20.0, &mut rng);
+        let loc = localize_pose(&prior, &s.points_world, &s.pixels, &s.camera, &cfg).unwrap();
+        assert_eq!(
+            loc.verdict.status,
+            Status::Refined,
+            "seed {seed}: {:?}",
+            loc.verdict
+        );
+        let t = loc.t_wc.unwrap();
+        assert!(
+            position_error_mm(&t, &s.t_wc) < 0.5,
+            "seed {seed}: {} mm",
+            position_error_mm(&t, &s.t_wc)
+        );
+        assert!(orientation_error_deg(&t, &s.t_wc) < 0.3);
+    }
+}
+
+#[test]
+fn a_good_prior_needs_no_ransac_and_noise_free_is_exact() {
+    let s = pnp_scene(
+        &PnpSceneConfig {
+            noise_px: 0.0,
+            ..Default::default()
+        },
+        77,
+    );
+    let prior = perturb_pose(&s.t_wc, 3.0, 3.0, &mut ChaCha8Rng::seed_from_u64(1));
+    let loc = localize_pose(
+        &prior,
+        &s.points_world,
+        &s.pixels,
+        &s.camera,
+        &LocalizeConfig::new(),
+    )
+    .unwrap();
+    assert_eq!(loc.verdict.status, Status::Refined);
+    assert!(!loc.used_ransac);
+    let t = loc.t_wc.unwrap();
+    assert!(position_error_mm(&t, &s.t_wc) < 1e-9);
+    assert!(orientation_error_deg(&t, &s.t_wc).to_radians() < 1e-9);
+    assert_eq!(loc.estimate.unwrap().inlier_count, 140);
+}
+
+#[test]
+fn a_prior_from_the_wrong_zone_is_rejected() {
+    let s = pnp_scene(&PnpSceneConfig::default(), 5);
+    let prior = perturb_pose(&s.t_wc, 10.0, 120.0, &mut ChaCha8Rng::seed_from_u64(2));
+    let loc = localize_pose(
+        &prior,
+        &s.points_world,
+        &s.pixels,
+        &s.camera,
+        &LocalizeConfig::new(),
+    )
+    .unwrap();
+    assert_eq!(loc.verdict.status, Status::Rejected);
+    assert!(matches!(
+        loc.verdict.reason,
+        Some(Reason::JumpTooLarge { .. })
+    ));
+    assert!(loc.t_wc.is_none());
+}
+
+#[test]
+fn too_few_correspondences_report_the_prior() {
+    let s = pnp_scene(&PnpSceneConfig::default(), 6);
+    let cfg = LocalizeConfig::new();
+    for n in [0, 2, 5] {
+        let loc = localize_pose(
+            &s.t_wc,
+            &s.points_world[..n],
+            &s.pixels[..n],
+            &s.camera,
+            &cfg,
+        )
+        .unwrap();
+        assert_eq!(loc.verdict.status, Status::InitOnly);
+        assert_eq!(loc.t_wc, Some(s.t_wc));
+        assert_eq!(
+            loc.verdict.reason.as_ref().map(Reason::code),
+            Some("too_few_correspondences")
+        );
+    }
+}
+
+#[test]
+fn degenerate_and_garbage_input_never_panic() {
+    let s = pnp_scene(&PnpSceneConfig::default(), 8);
+    let cfg = LocalizeConfig::new();
+
+    // NaN and mismatched lengths are input errors.
+    let mut nan = s.pixels.clone();
+    nan[3].x = f64::NAN;
+    assert_eq!(
+        localize_pose(&s.t_wc, &s.points_world, &nan, &s.camera, &cfg),
+        Err(LocalizeError::NonFinite { index: 3 })
+    );
+    assert!(matches!(
+        localize_pose(&s.t_wc, &s.points_world, &s.pixels[..10], &s.camera, &cfg),
+        Err(LocalizeError::LengthMismatch { .. })
+    ));
+
+    // Collinear map points: the pose is unobservable.
+    let (a, b) = (s.points_world[150], s.points_world[151]);
+    let line: Vec<Point3<f64>> = (0..30).map(|k| a + (b - a) * (k as f64 / 29.0)).collect();
+    let line_px: Vec<Point2<f64>> = line
+        .iter()
+        .map(|p| {
+            s.camera
+                .project(&s.t_wc.inverse_transform_point(p))
+                .unwrap()
+        })
+        .collect();
+    let loc = localize_pose(&s.t_wc, &line, &line_px, &s.camera, &cfg).unwrap();
+    assert_eq!(loc.verdict.status, Status::InitOnly, "{:?}", loc.verdict);
+    assert_eq!(
+        loc.verdict.reason.as_ref().map(Reason::code),
+        Some("degenerate_geometry")
+    );
+
+    // Only outliers: random pixels.
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let noise: Vec<Point2<f64>> = (0..100)
+        .map(|_| Point2::new(rng.random_range(0.0..639.0), rng.random_range(0.0..479.0)))
+        .collect();
+    let loc = localize_pose(&s.t_wc, &s.points_world[..100], &noise, &s.camera, &cfg).unwrap();
+    assert_ne!(loc.verdict.status, Status::Refined, "{:?}", loc.verdict);
+
+    // Points behind the camera (mirrored through it), seen at their mirrored pixels.
+    let behind: Vec<Point3<f64>> = s
+        .points_world
+        .iter()
+        .map(|p| {
+            let c = s.t_wc.inverse_transform_point(p);
+            s.t_wc * Point3::new(-c.x, -c.y, -c.z)
+        })
+        .collect();
+    let loc = localize_pose(&s.t_wc, &behind, &s.pixels, &s.camera, &cfg).unwrap();
+    assert_ne!(loc.verdict.status, Status::Refined, "{:?}", loc.verdict);
+}
