@@ -1,0 +1,166 @@
+//! [`SurfConfig`]: the parameters of the fast-Hessian detector and the SURF descriptor.
+//!
+//! # Relation to MATLAB's `detectSURFFeatures` (the paper: MetricThreshold 200, NumOctaves 4,
+//! NumScaleLevels 6)
+//!
+//! MATLAB's detector runs OpenCV's fast-Hessian code on the image converted to `uint8`
+//! (`im2uint8`), with `hessianThreshold = MetricThreshold`, `nOctaves = NumOctaves` and
+//! `nOctaveLayers = NumScaleLevels − 2`. This crate uses the same scale space and the same
+//! response units, so the MATLAB values carry over unchanged:
+//!
+//! | MATLAB | OpenCV `SURF_create` | here |
+//! |---|---|---|
+//! | `MetricThreshold` 200 | `hessianThreshold` 200 | [`SurfConfig::threshold`] 200 |
+//! | `NumOctaves` 4 | `nOctaves` 4 | [`SurfConfig::octaves`] 4 |
+//! | `NumScaleLevels` 6 | `nOctaveLayers` 4 | [`SurfConfig::scale_levels`] 6 |
+//! | (none, 1) | (none, 1) | [`SurfConfig::initial_step`] 1 |
+//! | `SURFSize` 64/128 in `extractFeatures` | `extended` | [`SurfConfig::extended`] |
+//! | `Upright` in `extractFeatures` | `upright` | [`SurfConfig::upright`] |
+//!
+//! Response units: intensities on the 0..255 scale (8-bit images as they are; `f32` images on
+//! the 0..1 scale are multiplied by 255), each lobe of a box filter is normalised by its own
+//! area (so `Dxx` is `mean(left lobe) − 2·mean(middle lobe) + mean(right lobe)`), and the
+//! response is `Dxx·Dyy − (0.9·Dxy)²`. A keypoint is kept when that response exceeds
+//! `threshold`. Filter side lengths are `(9 + 6·level)·2^octave` pixels, the sampling step of
+//! octave `o` is `initial_step·2^o`, as in OpenCV and MATLAB.
+
+use serde::{Deserialize, Serialize};
+
+use crate::FeatureError;
+
+/// Parameters of the SURF detector and descriptor. Build a detector with [`SurfConfig::init`].
+///
+/// ```
+/// use endoloc_features::SurfConfig;
+/// let surf = SurfConfig::default().with_threshold(400.0).with_upright(true).init()?;
+/// # Ok::<(), endoloc_features::FeatureError>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SurfConfig {
+    /// Hessian-determinant threshold, in the units of MATLAB's `MetricThreshold` and OpenCV's
+    /// `hessianThreshold` (0..255 intensities, lobe-area-normalised box filters).
+    /// Default 200 (the paper's value). Larger → fewer, stronger keypoints.
+    pub threshold: f32,
+    /// Number of octaves (MATLAB `NumOctaves`). Octave `o` doubles the filter sizes and the
+    /// sampling step of octave `o − 1`. Default 4 (the paper's value). Range 1..=8.
+    pub octaves: usize,
+    /// Number of filter sizes per octave (MATLAB `NumScaleLevels`); keypoints are searched in
+    /// the `scale_levels − 2` inner levels. Default 6 (the paper's value). Range 3..=12.
+    pub scale_levels: usize,
+    /// Sampling step of the first octave in pixels (1 = every pixel, as MATLAB/OpenCV; 2 as
+    /// in the original SURF code, about 3× faster and less precise). Default 1. Range 1..=8.
+    pub initial_step: usize,
+    /// U-SURF: skip the orientation assignment (orientation 0 = along +x). Faster and more
+    /// distinctive when the camera does not roll. Default false.
+    pub upright: bool,
+    /// 128-d extended descriptor instead of the 64-d one. Default false.
+    pub extended: bool,
+    /// Use all rayon threads (filter responses row-parallel, descriptors keypoint-parallel).
+    /// The output is identical either way. Default true.
+    pub parallel: bool,
+    /// Largest image accepted, in pixels; bigger images get
+    /// [`FeatureError::ImageTooLarge`] instead of allocating gigabytes. Default 50 000 000.
+    pub max_pixels: usize,
+}
+
+impl Default for SurfConfig {
+    fn default() -> Self {
+        Self {
+            threshold: 200.0,
+            octaves: 4,
+            scale_levels: 6,
+            initial_step: 1,
+            upright: false,
+            extended: false,
+            parallel: true,
+            max_pixels: 50_000_000,
+        }
+    }
+}
+
+impl SurfConfig {
+    /// Sets [`SurfConfig::threshold`].
+    pub fn with_threshold(mut self, threshold: f32) -> Self {
+        self.threshold = threshold;
+        self
+    }
+    /// Sets [`SurfConfig::octaves`].
+    pub fn with_octaves(mut self, octaves: usize) -> Self {
+        self.octaves = octaves;
+        self
+    }
+    /// Sets [`SurfConfig::scale_levels`].
+    pub fn with_scale_levels(mut self, scale_levels: usize) -> Self {
+        self.scale_levels = scale_levels;
+        self
+    }
+    /// Sets [`SurfConfig::initial_step`].
+    pub fn with_initial_step(mut self, initial_step: usize) -> Self {
+        self.initial_step = initial_step;
+        self
+    }
+    /// Sets [`SurfConfig::upright`].
+    pub fn with_upright(mut self, upright: bool) -> Self {
+        self.upright = upright;
+        self
+    }
+    /// Sets [`SurfConfig::extended`].
+    pub fn with_extended(mut self, extended: bool) -> Self {
+        self.extended = extended;
+        self
+    }
+    /// Sets [`SurfConfig::parallel`].
+    pub fn with_parallel(mut self, parallel: bool) -> Self {
+        self.parallel = parallel;
+        self
+    }
+    /// Sets [`SurfConfig::max_pixels`].
+    pub fn with_max_pixels(mut self, max_pixels: usize) -> Self {
+        self.max_pixels = max_pixels;
+        self
+    }
+
+    /// Length of the descriptors this configuration produces: 64, or 128 when extended.
+    pub fn descriptor_len(&self) -> usize {
+        if self.extended { 128 } else { 64 }
+    }
+
+    /// Checks every field against its documented range.
+    ///
+    /// # Errors
+    /// [`FeatureError::InvalidConfig`] naming the first field out of range.
+    pub fn validate(&self) -> Result<(), FeatureError> {
+        let bad = |field, reason: &str| {
+            Err(FeatureError::InvalidConfig {
+                field,
+                reason: reason.to_string(),
+            })
+        };
+        if !self.threshold.is_finite() || self.threshold < 0.0 {
+            return bad("threshold", "must be a finite number ≥ 0");
+        }
+        if !(1..=8).contains(&self.octaves) {
+            return bad("octaves", "must be in 1..=8");
+        }
+        if !(3..=12).contains(&self.scale_levels) {
+            return bad("scale_levels", "must be in 3..=12");
+        }
+        if !(1..=8).contains(&self.initial_step) {
+            return bad("initial_step", "must be in 1..=8");
+        }
+        if self.max_pixels == 0 {
+            return bad("max_pixels", "must be > 0");
+        }
+        Ok(())
+    }
+
+    /// Validates the configuration and builds the detector.
+    ///
+    /// # Errors
+    /// [`FeatureError::InvalidConfig`] when a field is out of range.
+    pub fn init(self) -> Result<crate::Surf, FeatureError> {
+        self.validate()?;
+        Ok(crate::Surf::from_validated(self))
+    }
+}

@@ -1,0 +1,445 @@
+//! Fast-Hessian detector: box-filter approximations of the second derivatives of a Gaussian,
+//! evaluated on an integral image over octaves × scale levels, determinant threshold, 3×3×3
+//! non-maximum suppression and quadratic interpolation of position and scale.
+//!
+//! Filter of side `L = (9 + 6·level)·2^octave` (odd in octave 0, even above) with lobe
+//! `l = L/3`:
+//! - `Dxx`: three lobes `l` wide and `2l − 1` tall (`2l − 2` when `L` is even), weights
+//!   +1, −2, +1 per lobe *mean*; `Dyy` its transpose;
+//! - `Dxy`: four `l × l` quadrants around a one-pixel cross (two pixels when `L` is even),
+//!   weights +1 on the top-left/bottom-right, −1 on the others, per quadrant mean;
+//! - response `det = Dxx·Dyy − (0.9·Dxy)²`, Laplacian sign `sign(Dxx + Dyy)`.
+//!
+//! A sample of octave `o` sits on the grid `X = k·step` (`step = initial_step·2^o`); an odd
+//! filter is centred on pixel `X`, an even one between pixels `X − 1` and `X` (centre
+//! `X − 0.5`), so all levels of one octave share sample centres.
+
+use rayon::prelude::*;
+
+use crate::integral::IntegralImage;
+use crate::{Keypoint, SurfConfig};
+
+/// Box-filter geometry of one scale level, as offsets into the integral image relative to the
+/// filter's top-left corner.
+#[derive(Debug, Clone)]
+pub(crate) struct LayerFilter {
+    /// Filter side length `L` in pixels.
+    pub size: usize,
+    /// Pixels the filter reaches left of / above the sample pixel `X`.
+    reach_lo: usize,
+    /// `X + reach_hi` must be ≤ the image width (exclusive end of the filter).
+    reach_hi: usize,
+    /// Corner offsets (relative to the filter's top-left corner) of the `Dxx` outer and
+    /// middle boxes, each `[x1y1, x1y0, x0y1, x0y0]`.
+    xx: [usize; 8],
+    yy: [usize; 8],
+    /// `Dxy` quadrants: top-left, bottom-right (weight +1), top-right, bottom-left (−1).
+    xy: [usize; 16],
+    inv_lobe_area: f64,
+    inv_quadrant_area: f64,
+}
+
+impl LayerFilter {
+    pub(crate) fn new(size: usize, stride: usize) -> Self {
+        let lobe = size / 3;
+        let even = usize::from(size % 2 == 0);
+        let reach_lo = size / 2;
+        let reach_hi = size - reach_lo;
+        let lobe_h = 2 * lobe - 1 - even;
+        // Box corners relative to the sample pixel X (may be negative), then shifted by reach_lo.
+        let r = reach_lo as i64;
+        let corners = |x0: i64, y0: i64, x1: i64, y1: i64| -> [usize; 4] {
+            let at = |x: i64, y: i64| ((y + r) as usize) * stride + (x + r) as usize;
+            [at(x1, y1), at(x1, y0), at(x0, y1), at(x0, y0)]
+        };
+        let (l, lh, lo) = (lobe as i64, lobe_h as i64, reach_lo as i64);
+        let top = -(l - 1);
+        let outer = (-lo, top, size as i64 - lo, top + lh);
+        let mid_x0 = -(l / 2);
+        let mid = (mid_x0, top, mid_x0 + l, top + lh);
+        let t = |b: (i64, i64, i64, i64)| (b.1, b.0, b.3, b.2);
+        let cat2 = |a: [usize; 4], b: [usize; 4]| [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]];
+        let xx = cat2(
+            corners(outer.0, outer.1, outer.2, outer.3),
+            corners(mid.0, mid.1, mid.2, mid.3),
+        );
+        let (o2, m2) = (t(outer), t(mid));
+        let yy = cat2(
+            corners(o2.0, o2.1, o2.2, o2.3),
+            corners(m2.0, m2.1, m2.2, m2.3),
+        );
+        let e = even as i64;
+        let (n0, n1) = (-e - l, -e); // negative side: [−e−l, −e)
+        let (p0, p1) = (1, 1 + l); // positive side: [1, 1+l)
+        let q = |x: (i64, i64), y: (i64, i64)| corners(x.0, y.0, x.1, y.1);
+        let (tl, br) = (q((n0, n1), (n0, n1)), q((p0, p1), (p0, p1)));
+        let (tr, bl) = (q((p0, p1), (n0, n1)), q((n0, n1), (p0, p1)));
+        let mut xy = [0usize; 16];
+        for (i, b) in [tl, br, tr, bl].iter().enumerate() {
+            xy[4 * i..4 * i + 4].copy_from_slice(b);
+        }
+        Self {
+            size,
+            reach_lo,
+            reach_hi,
+            xx,
+            yy,
+            xy,
+            inv_lobe_area: 1.0 / (lobe * lobe_h) as f64,
+            inv_quadrant_area: 1.0 / (lobe * lobe) as f64,
+        }
+    }
+
+    /// `(Dxx, Dyy, Dxy)` at the filter whose top-left integral corner is `base`.
+    #[inline(always)]
+    fn responses(&self, d: &[f64], base: usize) -> (f64, f64, f64) {
+        #[inline(always)]
+        fn bx(d: &[f64], base: usize, c: &[usize]) -> f64 {
+            d[base + c[0]] - d[base + c[1]] - d[base + c[2]] + d[base + c[3]]
+        }
+        let dxx =
+            (bx(d, base, &self.xx[0..4]) - 3.0 * bx(d, base, &self.xx[4..8])) * self.inv_lobe_area;
+        let dyy =
+            (bx(d, base, &self.yy[0..4]) - 3.0 * bx(d, base, &self.yy[4..8])) * self.inv_lobe_area;
+        let dxy = (bx(d, base, &self.xy[0..4]) + bx(d, base, &self.xy[4..8])
+            - bx(d, base, &self.xy[8..12])
+            - bx(d, base, &self.xy[12..16]))
+            * self.inv_quadrant_area;
+        (dxx, dyy, dxy)
+    }
+
+    /// Range of grid indices `k` (sample pixel `k·step`) where the filter fits in `extent`
+    /// pixels; `None` when it never fits.
+    fn valid_range(&self, extent: usize, step: usize) -> Option<(usize, usize)> {
+        if extent < self.reach_hi || extent < self.reach_lo {
+            return None;
+        }
+        let lo = self.reach_lo.div_ceil(step);
+        let hi = (extent - self.reach_hi) / step;
+        (lo <= hi).then_some((lo, hi))
+    }
+}
+
+/// Determinant-of-Hessian map of one level on the octave's sample grid (0 where the filter
+/// does not fit).
+struct Layer {
+    filter: LayerFilter,
+    det: Vec<f32>,
+}
+
+/// Sample grid of one octave.
+#[derive(Clone, Copy)]
+struct Grid {
+    step: usize,
+    nx: usize,
+    ny: usize,
+}
+
+fn compute_layer(ii: &IntegralImage, filter: LayerFilter, grid: Grid, parallel: bool) -> Layer {
+    let mut det = vec![0.0f32; grid.nx * grid.ny];
+    let (w, h) = (ii.width(), ii.height());
+    let (Some((x_lo, x_hi)), Some((y_lo, y_hi))) = (
+        filter.valid_range(w, grid.step),
+        filter.valid_range(h, grid.step),
+    ) else {
+        return Layer { filter, det };
+    };
+    let x_hi = x_hi.min(grid.nx - 1);
+    let y_hi = y_hi.min(grid.ny - 1);
+    let stride = ii.stride();
+    let data = ii.data();
+    let f = &filter;
+    let row = |ky: usize, out: &mut [f32]| {
+        if ky < y_lo || ky > y_hi {
+            return;
+        }
+        let y_top = ky * grid.step - f.reach_lo;
+        for (kx, o) in out.iter_mut().enumerate().take(x_hi + 1).skip(x_lo) {
+            let base = y_top * stride + kx * grid.step - f.reach_lo;
+            let (dxx, dyy, dxy) = f.responses(data, base);
+            *o = (dxx * dyy - 0.81 * dxy * dxy) as f32;
+        }
+    };
+    if parallel {
+        det.par_chunks_mut(grid.nx)
+            .enumerate()
+            .for_each(|(ky, out)| row(ky, out));
+    } else {
+        det.chunks_mut(grid.nx)
+            .enumerate()
+            .for_each(|(ky, out)| row(ky, out));
+    }
+    Layer { filter, det }
+}
+
+/// Filter side length of `level` in `octave` (MATLAB/OpenCV scheme).
+pub(crate) fn filter_size(octave: usize, level: usize) -> usize {
+    (9 + 6 * level) << octave
+}
+
+/// Runs the fast-Hessian detector; keypoints come with orientation 0, ordered by octave,
+/// level, row, column.
+pub(crate) fn detect(ii: &IntegralImage, cfg: &SurfConfig) -> Vec<Keypoint> {
+    let (w, h) = (ii.width(), ii.height());
+    let mut out = Vec::new();
+    if w == 0 || h == 0 {
+        return out;
+    }
+    for octave in 0..cfg.octaves {
+        let step = cfg.initial_step << octave;
+        let grid = Grid {
+            step,
+            nx: (w - 1) / step + 1,
+            ny: (h - 1) / step + 1,
+        };
+        // Skip the octave when even its smallest triple cannot fit.
+        if filter_size(octave, 2) > w.min(h) {
+            break;
+        }
+        let make = |level: usize| {
+            compute_layer(
+                ii,
+                LayerFilter::new(filter_size(octave, level), ii.stride()),
+                grid,
+                cfg.parallel,
+            )
+        };
+        let layers: Vec<Layer> = if cfg.parallel {
+            (0..cfg.scale_levels).into_par_iter().map(make).collect()
+        } else {
+            (0..cfg.scale_levels).map(make).collect()
+        };
+        for level in 1..cfg.scale_levels - 1 {
+            let found = suppress(ii, &layers, level, octave, grid, cfg);
+            out.extend(found);
+        }
+    }
+    out
+}
+
+/// 3×3×3 non-maximum suppression on `level`, interpolation, Laplacian sign.
+fn suppress(
+    ii: &IntegralImage,
+    layers: &[Layer],
+    level: usize,
+    octave: usize,
+    grid: Grid,
+    cfg: &SurfConfig,
+) -> Vec<Keypoint> {
+    let (below, mid, above) = (&layers[level - 1], &layers[level], &layers[level + 1]);
+    // The largest filter of the triple must fit at the sample and its 8 neighbours.
+    let (Some((x_lo, x_hi)), Some((y_lo, y_hi))) = (
+        above.filter.valid_range(ii.width(), grid.step),
+        above.filter.valid_range(ii.height(), grid.step),
+    ) else {
+        return Vec::new();
+    };
+    let (x_hi, y_hi) = (x_hi.min(grid.nx - 1), y_hi.min(grid.ny - 1));
+    if x_hi < x_lo + 2 || y_hi < y_lo + 2 {
+        return Vec::new();
+    }
+    let nx = grid.nx;
+    let threshold = cfg.threshold;
+    let row = |ky: usize| -> Vec<Keypoint> {
+        let mut found = Vec::new();
+        for kx in x_lo + 1..x_hi {
+            let i = ky * nx + kx;
+            let v = mid.det[i];
+            if v <= threshold {
+                continue;
+            }
+            // Strictly greater than the neighbours before it (level, row, column order) and
+            // not smaller than those after it: of a tie (a blob centred between samples)
+            // exactly one sample survives.
+            let nbhd = [
+                i - nx - 1,
+                i - nx,
+                i - nx + 1,
+                i - 1,
+                i,
+                i + 1,
+                i + nx - 1,
+                i + nx,
+                i + nx + 1,
+            ];
+            let is_max = nbhd.iter().all(|&j| below.det[j] < v)
+                && nbhd[..4].iter().all(|&j| mid.det[j] < v)
+                && nbhd[5..].iter().all(|&j| mid.det[j] <= v)
+                && nbhd.iter().all(|&j| above.det[j] <= v);
+            if !is_max {
+                continue;
+            }
+            if let Some(kp) = interpolate(ii, [below, mid, above], i, kx, ky, octave, grid) {
+                found.push(kp);
+            }
+        }
+        found
+    };
+    let rows = y_lo + 1..y_hi;
+    if cfg.parallel {
+        rows.into_par_iter().flat_map_iter(row).collect()
+    } else {
+        rows.flat_map(row).collect()
+    }
+}
+
+/// Fits a 3-D quadratic to the 3×3×3 neighbourhood; `None` when the offset leaves the cell.
+fn interpolate(
+    ii: &IntegralImage,
+    [below, mid, above]: [&Layer; 3],
+    i: usize,
+    kx: usize,
+    ky: usize,
+    octave: usize,
+    grid: Grid,
+) -> Option<Keypoint> {
+    let nx = grid.nx;
+    let (b, m, a) = (&below.det, &mid.det, &above.det);
+    let v = f64::from(m[i]);
+    let g = |d: &[f32], j: usize| f64::from(d[j]);
+    let dx = (g(m, i + 1) - g(m, i - 1)) / 2.0;
+    let dy = (g(m, i + nx) - g(m, i - nx)) / 2.0;
+    let ds = (g(a, i) - g(b, i)) / 2.0;
+    let dxx = g(m, i + 1) + g(m, i - 1) - 2.0 * v;
+    let dyy = g(m, i + nx) + g(m, i - nx) - 2.0 * v;
+    let dss = g(a, i) + g(b, i) - 2.0 * v;
+    let dxy = (g(m, i + nx + 1) - g(m, i + nx - 1) - g(m, i - nx + 1) + g(m, i - nx - 1)) / 4.0;
+    let dxs = (g(a, i + 1) - g(a, i - 1) - g(b, i + 1) + g(b, i - 1)) / 4.0;
+    let dys = (g(a, i + nx) - g(a, i - nx) - g(b, i + nx) + g(b, i - nx)) / 4.0;
+    let hm = [[dxx, dxy, dxs], [dxy, dyy, dys], [dxs, dys, dss]];
+    let off = solve3(hm, [-dx, -dy, -ds])?;
+    if off.iter().any(|o| !o.is_finite() || o.abs() >= 1.0) {
+        return None;
+    }
+    let half = if mid.filter.size % 2 == 0 { 0.5 } else { 0.0 };
+    let step = grid.step as f64;
+    let x = kx as f64 * step - half + off[0] * step;
+    let y = ky as f64 * step - half + off[1] * step;
+    let size_inc = (above.filter.size - mid.filter.size) as f64;
+    let size = mid.filter.size as f64 + off[2] * size_inc;
+    let response = v + 0.5 * (dx * off[0] + dy * off[1] + ds * off[2]);
+    // Laplacian sign from the trace at the sample itself.
+    let base =
+        (ky * grid.step - mid.filter.reach_lo) * ii.stride() + kx * grid.step - mid.filter.reach_lo;
+    let (rxx, ryy, _) = mid.filter.responses(ii.data(), base);
+    Some(Keypoint {
+        x: x as f32,
+        y: y as f32,
+        scale: (1.2 * size / 9.0) as f32,
+        orientation: 0.0,
+        response: response as f32,
+        laplacian: if rxx + ryy >= 0.0 { 1 } else { -1 },
+        octave: octave as u8,
+    })
+}
+
+/// Solves the 3×3 system `m·x = r` by Cramer's rule; `None` when singular.
+fn solve3(m: [[f64; 3]; 3], r: [f64; 3]) -> Option<[f64; 3]> {
+    let det3 = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det3(&m);
+    let scale = m.iter().flatten().fold(0.0f64, |acc, v| acc.max(v.abs()));
+    if d.abs() <= 1e-12 * scale * scale * scale || d == 0.0 {
+        return None;
+    }
+    let mut x = [0.0; 3];
+    for (c, xc) in x.iter_mut().enumerate() {
+        let mut mc = m;
+        for row in 0..3 {
+            mc[row][c] = r[row];
+        }
+        *xc = det3(&mc) / d;
+    }
+    Some(x)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Brute-force box filter response for the same geometry, from pixel loops.
+    fn naive_responses(px: &[f64], w: usize, x: usize, y: usize, size: usize) -> (f64, f64, f64) {
+        let lobe = size / 3;
+        let even = size % 2 == 0;
+        let lobe_h = 2 * lobe - 1 - usize::from(even);
+        let sum = |x0: i64, y0: i64, x1: i64, y1: i64| {
+            let mut s = 0.0;
+            for yy in y0..y1 {
+                for xx in x0..x1 {
+                    s += px[(y as i64 + yy) as usize * w + (x as i64 + xx) as usize];
+                }
+            }
+            s
+        };
+        let (l, lo, lh) = (lobe as i64, (size / 2) as i64, lobe_h as i64);
+        let top = -(l - 1);
+        let left = sum(-lo, top, -lo + l, top + lh);
+        let middle = sum(-lo + l, top, -lo + 2 * l, top + lh);
+        let right = sum(-lo + 2 * l, top, -lo + 3 * l, top + lh);
+        let a = (lobe * lobe_h) as f64;
+        let dxx = (left - 2.0 * middle + right) / a;
+        let upper = sum(top, -lo, top + lh, -lo + l);
+        let centre = sum(top, -lo + l, top + lh, -lo + 2 * l);
+        let lower = sum(top, -lo + 2 * l, top + lh, -lo + 3 * l);
+        let dyy = (upper - 2.0 * centre + lower) / a;
+        let e = i64::from(even);
+        let q = (lobe * lobe) as f64;
+        let dxy = (sum(-e - l, -e - l, -e, -e) + sum(1, 1, 1 + l, 1 + l)
+            - sum(1, -e - l, 1 + l, -e)
+            - sum(-e - l, 1, -e, 1 + l))
+            / q;
+        (dxx, dyy, dxy)
+    }
+
+    #[test]
+    fn box_filters_match_pixel_loops_for_odd_and_even_sizes() {
+        let (w, h) = (64usize, 60usize);
+        let px: Vec<u8> = (0..w * h)
+            .map(|i| ((i * 7919 + i / w * 31) % 256) as u8)
+            .collect();
+        let pxf: Vec<f64> = px.iter().map(|&v| f64::from(v)).collect();
+        let ii = IntegralImage::from_u8(&px, w, h);
+        for size in [9usize, 15, 18, 30, 39] {
+            let f = LayerFilter::new(size, ii.stride());
+            let (x, y) = (30usize, 29usize);
+            let base = (y - f.reach_lo) * ii.stride() + x - f.reach_lo;
+            let got = f.responses(ii.data(), base);
+            let want = naive_responses(&pxf, w, x, y, size);
+            for (g, wv) in [(got.0, want.0), (got.1, want.1), (got.2, want.2)] {
+                assert!((g - wv).abs() < 1e-9, "size {size}: {g} vs {wv}");
+            }
+        }
+    }
+
+    #[test]
+    fn filter_sizes_follow_the_matlab_opencv_scheme() {
+        assert_eq!(
+            (0..6).map(|l| filter_size(0, l)).collect::<Vec<_>>(),
+            [9, 15, 21, 27, 33, 39]
+        );
+        assert_eq!(filter_size(1, 0), 18);
+        assert_eq!(filter_size(3, 5), 312);
+    }
+
+    #[test]
+    fn cramer_solver_solves_and_rejects_singular() {
+        let x = solve3(
+            [[2.0, 1.0, 0.0], [1.0, 3.0, 1.0], [0.0, 1.0, 4.0]],
+            [3.0, 5.0, 5.0],
+        )
+        .unwrap();
+        for (v, want) in x.iter().zip([1.0, 1.0, 1.0]) {
+            assert!((v - want).abs() < 1e-12);
+        }
+        assert!(
+            solve3(
+                [[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]],
+                [1.0, 1.0, 1.0]
+            )
+            .is_none()
+        );
+    }
+}

@@ -1,0 +1,183 @@
+//! Summed-area table (integral image) for O(1) box sums.
+
+/// Integral image of a grey image: `sum(x, y)` is the sum of all pixels with column `< x`
+/// and row `< y`, stored for `x ∈ 0..=width`, `y ∈ 0..=height` (one row/column more than the
+/// image). Intensities are on the 0..255 scale; sums are `f64`, exact for 8-bit images of any
+/// size this crate accepts.
+#[derive(Debug, Clone)]
+pub struct IntegralImage {
+    width: usize,
+    height: usize,
+    data: Vec<f64>,
+}
+
+impl IntegralImage {
+    /// Builds the table from 8-bit pixels (row-major, `width × height`, length checked by the
+    /// caller).
+    pub(crate) fn from_u8(pixels: &[u8], width: usize, height: usize) -> Self {
+        Self::build(width, height, |i| f64::from(pixels[i]))
+    }
+
+    /// Builds the table from intensities on the 0..1 scale (multiplied by 255).
+    pub(crate) fn from_f32_unit(pixels: &[f32], width: usize, height: usize) -> Self {
+        Self::build(width, height, |i| f64::from(pixels[i]) * 255.0)
+    }
+
+    fn build(width: usize, height: usize, pixel: impl Fn(usize) -> f64) -> Self {
+        let stride = width + 1;
+        let mut data = vec![0.0f64; stride * (height + 1)];
+        for y in 0..height {
+            let mut row_sum = 0.0;
+            let (prev, cur) = data.split_at_mut((y + 1) * stride);
+            let prev = &prev[y * stride..];
+            let cur = &mut cur[..stride];
+            for x in 0..width {
+                row_sum += pixel(y * width + x);
+                cur[x + 1] = prev[x + 1] + row_sum;
+            }
+        }
+        Self {
+            width,
+            height,
+            data,
+        }
+    }
+
+    /// Image width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Image height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Row stride of [`IntegralImage::data`] (`width + 1`).
+    pub(crate) fn stride(&self) -> usize {
+        self.width + 1
+    }
+
+    /// The raw table, row-major with stride `width + 1`.
+    pub(crate) fn data(&self) -> &[f64] {
+        &self.data
+    }
+
+    /// Sum of the pixels in columns `x0..x1` and rows `y0..y1` (half-open); the rectangle is
+    /// clipped to the image, an empty rectangle sums to 0.
+    pub fn box_sum(&self, x0: i64, y0: i64, x1: i64, y1: i64) -> f64 {
+        let cx = |v: i64| v.clamp(0, self.width as i64) as usize;
+        let cy = |v: i64| v.clamp(0, self.height as i64) as usize;
+        let (x0, x1, y0, y1) = (cx(x0), cx(x1), cy(y0), cy(y1));
+        if x1 <= x0 || y1 <= y0 {
+            return 0.0;
+        }
+        self.box_sum_unchecked(x0, y0, x1, y1)
+    }
+
+    /// Box sum for a rectangle known to lie inside the image (`x1 ≤ width`, `y1 ≤ height`).
+    #[inline(always)]
+    pub(crate) fn box_sum_unchecked(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> f64 {
+        let s = self.stride();
+        let d = &self.data;
+        d[y1 * s + x1] - d[y0 * s + x1] - d[y1 * s + x0] + d[y0 * s + x0]
+    }
+}
+
+/// Floor of a finite `f32` as `i64` without a libm call.
+#[inline(always)]
+pub(crate) fn floor_i64(v: f32) -> i64 {
+    let i = v as i64;
+    if (i as f32) > v { i - 1 } else { i }
+}
+
+/// Nearest integer of a finite `f32` (halves round up).
+#[inline(always)]
+pub(crate) fn round_i64(v: f32) -> i64 {
+    floor_i64(v + 0.5)
+}
+
+impl IntegralImage {
+    /// Haar wavelet responses `(dx, dy)` of side `size` (even, ≥ 2) centred at the pixel
+    /// position `(x, y)`: `dx` = right half − left half, `dy` = bottom half − top half
+    /// (0..255 intensity sums). `None` when the wavelet leaves the image.
+    #[inline(always)]
+    pub(crate) fn haar(&self, x: f32, y: f32, size: i64) -> Option<(f32, f32)> {
+        let half = size / 2;
+        // The box covers pixels px−half ..= px+half−1, centred at px − 0.5 ≈ x.
+        let px = floor_i64(x + 1.0);
+        let py = floor_i64(y + 1.0);
+        let (x0, y0) = (px - half, py - half);
+        let (x1, y1) = (px + half, py + half);
+        if x0 < 0 || y0 < 0 || x1 > self.width as i64 || y1 > self.height as i64 {
+            return None;
+        }
+        let s = self.stride();
+        let (x0, xm, x1) = (x0 as usize, px as usize, x1 as usize);
+        let (r0, rm, r1) = (y0 as usize * s, py as usize * s, y1 as usize * s);
+        let d = &self.data;
+        let (a, b, c) = (d[r0 + x0], d[r0 + xm], d[r0 + x1]);
+        let (e, g) = (d[rm + x0], d[rm + x1]);
+        let (h, i, j) = (d[r1 + x0], d[r1 + xm], d[r1 + x1]);
+        let left = i - b - h + a;
+        let right = j - c - i + b;
+        let top = g - c - e + a;
+        let bottom = j - g - h + e;
+        Some(((right - left) as f32, (bottom - top) as f32))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn box_sums_match_naive_sums() {
+        let (w, h) = (13usize, 7usize);
+        let px: Vec<u8> = (0..w * h).map(|i| ((i * 37 + 11) % 251) as u8).collect();
+        let ii = IntegralImage::from_u8(&px, w, h);
+        for (x0, y0, x1, y1) in [(0, 0, 13, 7), (2, 1, 5, 6), (12, 6, 13, 7), (3, 3, 3, 5)] {
+            let mut naive = 0.0;
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    naive += f64::from(px[y * w + x]);
+                }
+            }
+            assert_eq!(
+                ii.box_sum(x0 as i64, y0 as i64, x1 as i64, y1 as i64),
+                naive
+            );
+        }
+        // Clipped: only the inside part counts.
+        assert_eq!(ii.box_sum(-5, -5, 1, 1), f64::from(px[0]));
+        assert_eq!(ii.box_sum(20, 0, 30, 7), 0.0);
+    }
+
+    #[test]
+    fn haar_responds_to_a_vertical_edge_and_not_outside() {
+        // Left half 0, right half 100: dx > 0, dy = 0.
+        let (w, h) = (10usize, 10usize);
+        let px: Vec<u8> = (0..w * h)
+            .map(|i| if i % w >= 5 { 100 } else { 0 })
+            .collect();
+        let ii = IntegralImage::from_u8(&px, w, h);
+        let (dx, dy) = ii.haar(4.5, 4.5, 4).unwrap();
+        assert_eq!((dx, dy), (800.0, 0.0));
+        assert!(ii.haar(0.0, 4.0, 4).is_none());
+        assert_eq!(
+            (
+                floor_i64(-0.5),
+                floor_i64(2.0),
+                round_i64(2.5),
+                round_i64(-1.4)
+            ),
+            (-1, 2, 3, -1)
+        );
+    }
+
+    #[test]
+    fn unit_float_input_is_scaled_to_255() {
+        let ii = IntegralImage::from_f32_unit(&[1.0, 0.5, 0.0, 0.25], 2, 2);
+        assert!((ii.box_sum(0, 0, 2, 2) - 255.0 * 1.75).abs() < 1e-9);
+    }
+}

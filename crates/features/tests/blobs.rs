@@ -1,0 +1,63 @@
+//! Synthetic blobs at known positions and scales are found there, at that scale.
+
+use endoloc_features::{BLOB_SIGMA_PER_SCALE, Keypoint, SurfConfig};
+use image::GrayImage;
+
+/// A `size × size` grey image with one Gaussian blob of standard deviation `sigma` px centred
+/// at `(cx, cy)`; `dark` makes it darker than the background.
+fn blob_image(size: u32, cx: f32, cy: f32, sigma: f32, dark: bool) -> GrayImage {
+    GrayImage::from_fn(size, size, |x, y| {
+        let (dx, dy) = (x as f32 - cx, y as f32 - cy);
+        let g = (-(dx * dx + dy * dy) / (2.0 * sigma * sigma)).exp();
+        let v = if dark {
+            200.0 - 150.0 * g
+        } else {
+            50.0 + 150.0 * g
+        };
+        image::Luma([(v + 0.5) as u8])
+    })
+}
+
+fn strongest(kps: &[Keypoint]) -> Keypoint {
+    *kps.iter()
+        .max_by(|a, b| a.response.total_cmp(&b.response))
+        .expect("at least one keypoint")
+}
+
+#[test]
+fn blobs_are_found_at_their_position_and_scale() {
+    let surf = SurfConfig::default().with_parallel(false).init().unwrap();
+    // The SURF σ of a filter is 1.2·L/9; a Gaussian blob of σ_b peaks at L ≈ 5.3·σ_b, so the
+    // reported scale is σ_b / BLOB_SIGMA_PER_SCALE. Blob σ 2.5 … 16 spans octaves 0–2.
+    for (sigma, cx, cy, dark) in [
+        (2.5f32, 60.3f32, 58.6f32, true),
+        (4.0, 61.0, 59.5, false),
+        (6.0, 64.4, 63.2, true),
+        (9.0, 100.0, 101.7, false),
+        (16.0, 128.2, 127.4, true),
+    ] {
+        let size = if sigma < 8.0 { 128 } else { 256 };
+        let img = blob_image(size, cx, cy, sigma, dark);
+        let kps = surf.detect(&img).unwrap();
+        let k = strongest(&kps);
+        let pos_err = ((k.x - cx).powi(2) + (k.y - cy).powi(2)).sqrt();
+        let scale_ratio = k.scale * BLOB_SIGMA_PER_SCALE / sigma;
+        assert!(pos_err < 0.1, "σ_b {sigma}: position error {pos_err} px");
+        // One keypoint per blob (a second, weaker one may come from the next octave).
+        assert!(
+            (1..=2).contains(&kps.len()),
+            "σ_b {sigma}: {} keypoints",
+            kps.len()
+        );
+        assert!(
+            (0.94..1.06).contains(&scale_ratio),
+            "σ_b {sigma}: blob σ {} vs {sigma}",
+            k.blob_sigma()
+        );
+        assert_eq!(
+            k.laplacian,
+            if dark { 1 } else { -1 },
+            "σ_b {sigma}: Laplacian sign"
+        );
+    }
+}
