@@ -1,0 +1,36 @@
+//! endoloc's colonoscopy simulator.
+//!
+//! Renders image sequences with exact 6-DoF poses from a colon model — the built-in
+//! [`colon::procedural`] large intestine or a surface mesh with its mid-line
+//! ([`colon::from_mesh`], e.g. a CT colon) — along clinical passes anus → caecum
+//! ([`trajectory`]), with a mucosa texture that is homogeneous within an anatomical section
+//! ([`appearance`]) and a light at the scope tip ([`render`]). [`simulate::simulate`] writes an
+//! endoloc dataset (format v1, see `DESIGN.md`).
+//!
+//! Conventions: mm; poses `T_wc`; OpenCV camera axes; pixel origin at the top-left pixel's
+//! centre.
+
+pub mod appearance;
+pub mod centerline;
+pub mod colon;
+pub mod config;
+pub mod render;
+pub mod simulate;
+pub mod trajectory;
+
+pub use config::{CameraConfig, ColonSource, Preset, SimConfig};
+pub use simulate::{Progress, SimSummary, simulate};
+
+/// Errors of the simulator.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// A parameter is out of range or inconsistent; the message names it.
+    #[error("invalid configuration: {0}")]
+    InvalidConfig(String),
+    /// A mid-line path that cannot be used (too short, non-finite points).
+    #[error("invalid mid-line path: {0}")]
+    InvalidPath(String),
+    /// Reading inputs or writing the dataset failed.
+    #[error(transparent)]
+    Data(#[from] endoloc_data::DataError),
+}

@@ -1,0 +1,622 @@
+//! Software renderer for colonoscopy frames.
+//!
+//! Two passes per frame:
+//! 1. **Visibility**: the triangles of the colon within `[s − view_behind, s + view_ahead]` of
+//!    the scope are clipped at the near plane and rasterised into a visibility buffer holding,
+//!    per pixel, the nearest triangle and its perspective-correct barycentric coordinates.
+//!    Only that stretch can be seen from inside the lumen; beyond it the inverse-square fall-off
+//!    leaves the lumen black anyway.
+//! 2. **Shading**, once per pixel: position, normal and surface coordinates are interpolated;
+//!    albedo and micro-relief come from the [`MucosaAtlas`]; the light sits at the scope tip
+//!    (inverse-square fall-off, a cosine LED lobe), with a wet specular lobe, vignetting, a soft
+//!    shoulder tone curve, display gamma and optional sensor noise.
+//!
+//! The camera is an ideal pinhole in OpenCV axes; pixel `(u, v)`'s centre is at `(u, v)`.
+//! Depth is the z coordinate (along the optical axis) of the visible surface, mm.
+
+use endoloc_geometry::{Camera, Pose};
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::SimError;
+use crate::appearance::{MucosaAtlas, splitmix64};
+use crate::colon::ColonModel;
+
+/// Lighting, optics and sensor parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderConfig {
+    /// Near clipping distance, mm.
+    pub near_mm: f64,
+    /// Stretch of colon drawn ahead of the scope, mm of arc length.
+    pub view_ahead_mm: f64,
+    /// Stretch of colon drawn behind the scope, mm of arc length.
+    pub view_behind_mm: f64,
+    /// Light power: a white wall facing the scope at 20 mm reaches linear intensity
+    /// `light_power / 400` before tone mapping.
+    pub light_power: f64,
+    /// Ambient light (fraction of albedo), keeps the far lumen from pure black.
+    pub ambient: f64,
+    /// Strength of the wet specular highlight.
+    pub specular: f64,
+    /// Specular exponent; rounded to a power of two between 2 and 256.
+    pub shininess: u32,
+    /// Strength of the micro-relief (bump) shading.
+    pub bump: f64,
+    /// Vignetting: intensity × `1 − vignetting · r²` with `r` = 1 at the image corner.
+    pub vignetting: f64,
+    /// Sensor noise standard deviation, 8-bit grey levels (0 = none).
+    pub noise_sigma: f64,
+    /// Sub-frames averaged for motion blur (1 = none; even values are rounded up).
+    pub motion_blur_samples: usize,
+    /// Exposure time as a fraction of the frame interval (for motion blur).
+    pub shutter_fraction: f64,
+}
+
+impl Default for RenderConfig {
+    fn default() -> Self {
+        RenderConfig {
+            near_mm: 0.5,
+            view_ahead_mm: 260.0,
+            view_behind_mm: 40.0,
+            light_power: 420.0,
+            ambient: 0.01,
+            specular: 0.3,
+            shininess: 32,
+            bump: 0.25,
+            vignetting: 0.45,
+            noise_sigma: 1.5,
+            motion_blur_samples: 1,
+            shutter_fraction: 0.5,
+        }
+    }
+}
+
+impl RenderConfig {
+    /// Checks ranges.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidConfig`] naming the first bad field.
+    pub fn validate(&self) -> Result<(), SimError> {
+        let check = |name: &str, v: f64, ok: bool| {
+            if v.is_finite() && ok {
+                Ok(())
+            } else {
+                Err(SimError::InvalidConfig(format!(
+                    "render: {name} out of range: {v}"
+                )))
+            }
+        };
+        check("near_mm", self.near_mm, self.near_mm > 0.0)?;
+        check(
+            "view_ahead_mm",
+            self.view_ahead_mm,
+            self.view_ahead_mm > 0.0,
+        )?;
+        check(
+            "view_behind_mm",
+            self.view_behind_mm,
+            self.view_behind_mm >= 0.0,
+        )?;
+        check("light_power", self.light_power, self.light_power > 0.0)?;
+        check("ambient", self.ambient, self.ambient >= 0.0)?;
+        check("specular", self.specular, self.specular >= 0.0)?;
+        check("bump", self.bump, self.bump >= 0.0)?;
+        check(
+            "vignetting",
+            self.vignetting,
+            (0.0..=1.0).contains(&self.vignetting),
+        )?;
+        check("noise_sigma", self.noise_sigma, self.noise_sigma >= 0.0)?;
+        check(
+            "shutter_fraction",
+            self.shutter_fraction,
+            (0.0..=1.0).contains(&self.shutter_fraction),
+        )?;
+        if self.motion_blur_samples == 0 || self.motion_blur_samples > 64 {
+            return Err(SimError::InvalidConfig(format!(
+                "render: motion_blur_samples must be 1..=64, got {}",
+                self.motion_blur_samples
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// One rendered frame.
+#[derive(Debug, Clone)]
+pub struct RenderedFrame {
+    /// 8-bit RGB, row-major, `width × height × 3`.
+    pub rgb: Vec<u8>,
+    /// Depth along the optical axis, mm, `width × height`; 0 where nothing was hit.
+    pub depth_mm: Vec<f32>,
+}
+
+/// Per-thread scratch memory reused from frame to frame (no allocation per frame once warm).
+#[derive(Debug, Default)]
+pub struct RenderScratch {
+    inv_z: Vec<f32>,
+    tri: Vec<u32>,
+    l1: Vec<f32>,
+    l2: Vec<f32>,
+    verts: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    linear: Vec<f32>,
+    depth: Vec<f32>,
+}
+
+const NO_TRI: u32 = u32::MAX;
+
+/// Renders frames of one colon with one camera.
+pub struct Renderer<'a> {
+    colon: &'a ColonModel,
+    atlas: &'a MucosaAtlas,
+    camera: Camera,
+    cfg: RenderConfig,
+    gamma_lut: Vec<u8>,
+    vignette: Vec<f32>,
+}
+
+impl<'a> Renderer<'a> {
+    /// Prepares a renderer.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidConfig`] for an invalid camera (or one with lens distortion, which
+    /// the rasteriser does not model) or render config.
+    pub fn new(
+        colon: &'a ColonModel,
+        atlas: &'a MucosaAtlas,
+        camera: Camera,
+        cfg: RenderConfig,
+    ) -> Result<Self, SimError> {
+        camera.validate().map_err(SimError::InvalidConfig)?;
+        if !camera.distortion.is_none() {
+            return Err(SimError::InvalidConfig(
+                "the simulator renders ideal pinhole images: remove the camera distortion".into(),
+            ));
+        }
+        cfg.validate()?;
+        let gamma_lut = (0..4096)
+            .map(|i| {
+                let x = i as f64 / 4095.0;
+                // sRGB transfer curve.
+                let y = if x <= 0.003_130_8 {
+                    12.92 * x
+                } else {
+                    1.055 * x.powf(1.0 / 2.4) - 0.055
+                };
+                (y * 255.0).round().clamp(0.0, 255.0) as u8
+            })
+            .collect();
+        let (w, h) = (camera.width as usize, camera.height as usize);
+        let half_diag2 = ((w as f64 / 2.0).powi(2) + (h as f64 / 2.0).powi(2)).max(1e-9);
+        let mut vignette = Vec::with_capacity(w * h);
+        for y in 0..h {
+            for x in 0..w {
+                let dx = x as f64 - camera.cx;
+                let dy = y as f64 - camera.cy;
+                let r2 = (dx * dx + dy * dy) / half_diag2;
+                vignette.push((1.0 - cfg.vignetting * r2).max(0.0) as f32);
+            }
+        }
+        Ok(Renderer {
+            colon,
+            atlas,
+            camera,
+            cfg,
+            gamma_lut,
+            vignette,
+        })
+    }
+
+    /// The camera frames are rendered with.
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// The render settings.
+    pub fn config(&self) -> &RenderConfig {
+        &self.cfg
+    }
+
+    /// Renders one frame seen from `sub_poses` (T_wc, mm), each with the arc length of the
+    /// scope along the mid-line (mm). One pose renders a sharp frame; several are averaged into
+    /// a motion-blurred one, and the depth map is that of the middle pose. `noise_seed` seeds
+    /// the sensor noise of this frame.
+    pub fn render(
+        &self,
+        sub_poses: &[(Pose, f64)],
+        noise_seed: u64,
+        scratch: &mut RenderScratch,
+    ) -> RenderedFrame {
+        let n = (self.camera.width * self.camera.height) as usize;
+        scratch.linear.clear();
+        scratch.linear.resize(3 * n, 0.0);
+        scratch.depth.clear();
+        scratch.depth.resize(n, 0.0);
+        let weight = 1.0 / sub_poses.len().max(1) as f32;
+        let middle = sub_poses.len() / 2;
+        for (k, (pose, s)) in sub_poses.iter().enumerate() {
+            let (tri_range, v0) = self.rasterize(pose, *s, scratch);
+            self.shade(tri_range, v0, weight, scratch);
+            if k == middle {
+                for (d, iz) in scratch.depth.iter_mut().zip(&scratch.inv_z) {
+                    *d = if *iz > 0.0 { 1.0 / iz } else { 0.0 };
+                }
+            }
+        }
+        let rgb = self.finish(noise_seed, scratch);
+        RenderedFrame {
+            rgb,
+            depth_mm: scratch.depth.clone(),
+        }
+    }
+
+    /// Visibility pass. Returns the triangle index range drawn and the first cached vertex.
+    fn rasterize(
+        &self,
+        pose: &Pose,
+        s: f64,
+        scratch: &mut RenderScratch,
+    ) -> (std::ops::Range<usize>, usize) {
+        let (w, h) = (self.camera.width as usize, self.camera.height as usize);
+        let n = w * h;
+        scratch.inv_z.clear();
+        scratch.inv_z.resize(n, 0.0);
+        scratch.tri.clear();
+        scratch.tri.resize(n, NO_TRI);
+        scratch.l1.resize(n, 0.0);
+        scratch.l2.resize(n, 0.0);
+
+        let mesh = &self.colon.mesh;
+        let chunks = mesh.chunks_between(s - self.cfg.view_behind_mm, s + self.cfg.view_ahead_mm);
+        let tri_range = mesh.triangle_range(chunks.clone());
+        let vrange = mesh.vertex_range(chunks);
+        let v0 = vrange.start;
+
+        // Vertex cache in the camera frame (f32 is ample inside a 300 mm stretch).
+        let r_cw: Matrix3<f64> = pose.rotation.inverse().to_rotation_matrix().into_inner();
+        let t_wc: Vector3<f64> = pose.translation.vector;
+        scratch.verts.clear();
+        scratch.normals.clear();
+        for v in vrange {
+            let p = r_cw * (mesh.positions[v].coords - t_wc);
+            scratch.verts.push([p.x as f32, p.y as f32, p.z as f32]);
+            let nv = r_cw * mesh.normals[v].cast::<f64>();
+            scratch
+                .normals
+                .push([nv.x as f32, nv.y as f32, nv.z as f32]);
+        }
+
+        let near = self.cfg.near_mm as f32;
+        let cam = Intrinsics::from(&self.camera);
+        let mut buf = VisBuffer {
+            w,
+            h,
+            inv_z: &mut scratch.inv_z,
+            tri: &mut scratch.tri,
+            l1: &mut scratch.l1,
+            l2: &mut scratch.l2,
+        };
+        const E: [[f32; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        for ti in tri_range.clone() {
+            let t = mesh.triangles[ti];
+            let p = t.map(|v| scratch.verts[v as usize - v0]);
+            let in_front = p.iter().filter(|q| q[2] >= near).count();
+            match in_front {
+                0 => continue,
+                3 => buf.draw(&cam, p, E, ti as u32),
+                _ => {
+                    // Clip the polygon against z = near (Sutherland–Hodgman), carrying the
+                    // barycentric coordinates of the original triangle.
+                    let mut poly: [([f32; 3], [f32; 3]); 4] = [([0.0; 3], [0.0; 3]); 4];
+                    let mut m = 0;
+                    for i in 0..3 {
+                        let j = (i + 1) % 3;
+                        let (a, b) = (p[i], p[j]);
+                        let (ia, ib) = (a[2] >= near, b[2] >= near);
+                        if ia {
+                            poly[m] = (a, E[i]);
+                            m += 1;
+                        }
+                        if ia != ib {
+                            let f = (near - a[2]) / (b[2] - a[2]);
+                            let lerp = |x: [f32; 3], y: [f32; 3]| {
+                                [
+                                    x[0] + (y[0] - x[0]) * f,
+                                    x[1] + (y[1] - x[1]) * f,
+                                    x[2] + (y[2] - x[2]) * f,
+                                ]
+                            };
+                            let mut q = lerp(a, b);
+                            q[2] = near;
+                            poly[m] = (q, lerp(E[i], E[j]));
+                            m += 1;
+                        }
+                    }
+                    for k in 1..m.saturating_sub(1) {
+                        buf.draw(
+                            &cam,
+                            [poly[0].0, poly[k].0, poly[k + 1].0],
+                            [poly[0].1, poly[k].1, poly[k + 1].1],
+                            ti as u32,
+                        );
+                    }
+                }
+            }
+        }
+        (tri_range, v0)
+    }
+
+    /// Shading pass: adds `weight ×` linear RGB of every covered pixel to `scratch.linear`.
+    fn shade(
+        &self,
+        _tri_range: std::ops::Range<usize>,
+        v0: usize,
+        weight: f32,
+        scratch: &mut RenderScratch,
+    ) {
+        let mesh = &self.colon.mesh;
+        let cfg = &self.cfg;
+        let power = (cfg.light_power) as f32;
+        let ambient = cfg.ambient as f32;
+        let specular = cfg.specular as f32;
+        let squarings = cfg.shininess.clamp(2, 256).ilog2();
+        let bump = cfg.bump as f32;
+        let atlas = self.atlas;
+        let dh_s = atlas.texel_mm; // finite-difference step along s, mm
+        let dh_t = std::f32::consts::TAU / atlas.theta_texels as f32; // along θ, rad
+        for (i, &tid) in scratch.tri.iter().enumerate() {
+            if tid == NO_TRI {
+                continue;
+            }
+            let t = mesh.triangles[tid as usize];
+            let idx = t.map(|v| v as usize - v0);
+            let (l1, l2) = (scratch.l1[i], scratch.l2[i]);
+            let l0 = 1.0 - l1 - l2;
+            let lam = [l0, l1, l2];
+            let mut p = [0f32; 3];
+            let mut nrm = [0f32; 3];
+            for k in 0..3 {
+                let v = scratch.verts[idx[k]];
+                let nv = scratch.normals[idx[k]];
+                for c in 0..3 {
+                    p[c] += lam[k] * v[c];
+                    nrm[c] += lam[k] * nv[c];
+                }
+            }
+            let s_v = t.map(|v| mesh.s_mm[v as usize]);
+            let th0 = mesh.theta[t[0] as usize];
+            let unwrap = |th: f32| {
+                let mut d = th - th0;
+                if d > std::f32::consts::PI {
+                    d -= std::f32::consts::TAU;
+                } else if d < -std::f32::consts::PI {
+                    d += std::f32::consts::TAU;
+                }
+                d
+            };
+            let (dt1, dt2) = (
+                unwrap(mesh.theta[t[1] as usize]),
+                unwrap(mesh.theta[t[2] as usize]),
+            );
+            let s = l0 * s_v[0] + l1 * s_v[1] + l2 * s_v[2];
+            let theta = th0 + l1 * dt1 + l2 * dt2;
+            let tex = atlas.sample(s, theta);
+
+            // Micro-relief: perturb the normal along the surface directions of s and θ.
+            let mut n = normalize(nrm);
+            if bump > 0.0 {
+                let gs = (atlas.sample_height(s + dh_s, theta) - tex[3]) / dh_s;
+                let gt = (atlas.sample_height(s, theta + dh_t) - tex[3]) / dh_t;
+                let a = scratch.verts[idx[0]];
+                let e1 = sub(scratch.verts[idx[1]], a);
+                let e2 = sub(scratch.verts[idx[2]], a);
+                let (ds1, ds2) = (s_v[1] - s_v[0], s_v[2] - s_v[0]);
+                let det = ds1 * dt2 - ds2 * dt1;
+                if det.abs() > 1e-9 {
+                    // [e1 e2] = [∂p/∂s ∂p/∂θ] · [[ds1 ds2] [dt1 dt2]]
+                    let inv = 1.0 / det;
+                    let ps = [
+                        (e1[0] * dt2 - e2[0] * dt1) * inv,
+                        (e1[1] * dt2 - e2[1] * dt1) * inv,
+                        (e1[2] * dt2 - e2[2] * dt1) * inv,
+                    ];
+                    let pt = [
+                        (e2[0] * ds1 - e1[0] * ds2) * inv,
+                        (e2[1] * ds1 - e1[1] * ds2) * inv,
+                        (e2[2] * ds1 - e1[2] * ds2) * inv,
+                    ];
+                    let (ls, lt) = (norm(ps).max(1e-6), norm(pt).max(1e-6));
+                    // Height gradient per mm along each surface direction.
+                    let (gs_mm, gt_mm) = (gs / ls, gt / lt);
+                    let k = bump * 0.6;
+                    for c in 0..3 {
+                        n[c] -= k * (gs_mm * ps[c] / ls + gt_mm * pt[c] / lt);
+                    }
+                    n = normalize(n);
+                }
+            }
+
+            let d2 = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).max(1e-6);
+            let d = d2.sqrt();
+            let l = [-p[0] / d, -p[1] / d, -p[2] / d];
+            let ndl = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]).abs();
+            let lobe = (p[2] / d).max(0.0);
+            let irradiance = power * lobe / d2;
+            let mut spec = ndl;
+            for _ in 0..squarings {
+                spec *= spec;
+            }
+            let spec = specular * spec * irradiance;
+            let diffuse = ndl * irradiance + ambient;
+            for c in 0..3 {
+                scratch.linear[3 * i + c] += weight * (tex[c] * diffuse + spec);
+            }
+        }
+    }
+
+    /// Tone curve, vignetting, gamma and sensor noise → 8-bit RGB.
+    fn finish(&self, noise_seed: u64, scratch: &RenderScratch) -> Vec<u8> {
+        let sigma = self.cfg.noise_sigma as f32;
+        let lut = &self.gamma_lut;
+        let mut out = vec![0u8; scratch.linear.len()];
+        for (i, px) in out.chunks_exact_mut(3).enumerate() {
+            let v = self.vignette[i];
+            let h = if sigma > 0.0 {
+                splitmix64(noise_seed ^ (i as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93))
+            } else {
+                0
+            };
+            for c in 0..3 {
+                let x = scratch.linear[3 * i + c] * v;
+                // Soft shoulder: linear near 0, saturating smoothly towards 1.
+                let y = x * (1.0 + x * 0.25) / (1.0 + x);
+                let g = lut[((y.clamp(0.0, 1.0)) * 4095.0) as usize] as f32;
+                let g = if sigma > 0.0 {
+                    // Irwin–Hall(4) of 16-bit uniforms: mean 2, variance 1/3.
+                    let bits = (h >> (c * 16)) & 0xFFFF;
+                    let bits2 = (h.rotate_left(21 + 8 * c as u32)) & 0xFFFF;
+                    let u = (bits as f32 + bits2 as f32) / 65535.0;
+                    let h2 = splitmix64(h ^ c as u64);
+                    let u2 = ((h2 & 0xFFFF) as f32 + ((h2 >> 16) & 0xFFFF) as f32) / 65535.0;
+                    g + sigma * (u + u2 - 2.0) * 1.732_050_8
+                } else {
+                    g
+                };
+                px[c] = (g + 0.5).clamp(0.0, 255.0) as u8; // round half up, no libm call
+            }
+        }
+        out
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Intrinsics {
+    fx: f32,
+    fy: f32,
+    cx: f32,
+    cy: f32,
+}
+
+impl From<&Camera> for Intrinsics {
+    fn from(c: &Camera) -> Self {
+        Intrinsics {
+            fx: c.fx as f32,
+            fy: c.fy as f32,
+            cx: c.cx as f32,
+            cy: c.cy as f32,
+        }
+    }
+}
+
+struct VisBuffer<'b> {
+    w: usize,
+    h: usize,
+    inv_z: &'b mut [f32],
+    tri: &'b mut [u32],
+    l1: &'b mut [f32],
+    l2: &'b mut [f32],
+}
+
+impl VisBuffer<'_> {
+    /// Rasterises a triangle with camera-frame vertices `p` (all `z ≥ near`) whose
+    /// barycentric coordinates in the original triangle are `bary`.
+    #[inline]
+    fn draw(&mut self, cam: &Intrinsics, p: [[f32; 3]; 3], bary: [[f32; 3]; 3], tid: u32) {
+        let iz = [1.0 / p[0][2], 1.0 / p[1][2], 1.0 / p[2][2]];
+        let x = [
+            cam.fx * p[0][0] * iz[0] + cam.cx,
+            cam.fx * p[1][0] * iz[1] + cam.cx,
+            cam.fx * p[2][0] * iz[2] + cam.cx,
+        ];
+        let y = [
+            cam.fy * p[0][1] * iz[0] + cam.cy,
+            cam.fy * p[1][1] * iz[1] + cam.cy,
+            cam.fy * p[2][1] * iz[2] + cam.cy,
+        ];
+        let area = (x[1] - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (y[1] - y[0]);
+        if !(area.abs() > 1e-12) {
+            return;
+        }
+        let xmin = x[0].min(x[1]).min(x[2]).max(0.0).ceil();
+        let xmax = x[0].max(x[1]).max(x[2]).min((self.w - 1) as f32).floor();
+        let ymin = y[0].min(y[1]).min(y[2]).max(0.0).ceil();
+        let ymax = y[0].max(y[1]).max(y[2]).min((self.h - 1) as f32).floor();
+        if xmin > xmax || ymin > ymax {
+            return;
+        }
+        // Normalised edge functions e_k(x, y) = a_k x + b_k y + c_k: the screen barycentric
+        // of vertex k, for edges (1,2), (2,0), (0,1).
+        let inv_area = 1.0 / area;
+        let edge = |i: usize, j: usize| {
+            let a = -(y[j] - y[i]) * inv_area;
+            let b = (x[j] - x[i]) * inv_area;
+            let c = ((y[j] - y[i]) * x[i] - (x[j] - x[i]) * y[i]) * inv_area;
+            (a, b, c)
+        };
+        let e = [edge(1, 2), edge(2, 0), edge(0, 1)];
+        const EPS: f32 = 1e-5;
+        for yi in ymin as usize..=ymax as usize {
+            let yf = yi as f32;
+            let row = [
+                e[0].1 * yf + e[0].2,
+                e[1].1 * yf + e[1].2,
+                e[2].1 * yf + e[2].2,
+            ];
+            let (mut lo, mut hi) = (xmin, xmax);
+            let mut empty = false;
+            for k in 0..3 {
+                let a = e[k].0;
+                let bound = (-EPS - row[k]) / a;
+                if a > 0.0 {
+                    lo = lo.max(bound.ceil());
+                } else if a < 0.0 {
+                    hi = hi.min(bound.floor());
+                } else if row[k] < -EPS {
+                    empty = true;
+                }
+            }
+            if empty || lo > hi {
+                continue;
+            }
+            let base = yi * self.w;
+            for xi in lo as usize..=hi as usize {
+                let xf = xi as f32;
+                let b0 = (e[0].0 * xf + row[0]).max(0.0);
+                let b1 = (e[1].0 * xf + row[1]).max(0.0);
+                let b2 = (e[2].0 * xf + row[2]).max(0.0);
+                let invz = b0 * iz[0] + b1 * iz[1] + b2 * iz[2];
+                let idx = base + xi;
+                if invz > self.inv_z[idx] {
+                    self.inv_z[idx] = invz;
+                    self.tri[idx] = tid;
+                    let norm = 1.0 / invz;
+                    let m = [b0 * iz[0] * norm, b1 * iz[1] * norm, b2 * iz[2] * norm];
+                    self.l1[idx] = m[0] * bary[0][1] + m[1] * bary[1][1] + m[2] * bary[2][1];
+                    self.l2[idx] = m[0] * bary[0][2] + m[1] * bary[1][2] + m[2] * bary[2][2];
+                }
+            }
+        }
+    }
+}
+
+#[inline]
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[inline]
+fn norm(a: [f32; 3]) -> f32 {
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+}
+
+#[inline]
+fn normalize(a: [f32; 3]) -> [f32; 3] {
+    let n = norm(a);
+    if n > 1e-12 {
+        [a[0] / n, a[1] / n, a[2] / n]
+    } else {
+        [0.0, 0.0, -1.0]
+    }
+}

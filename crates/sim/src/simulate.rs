@@ -1,0 +1,192 @@
+//! The simulation driver: colon → texture → passes → rendered dataset on disk.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use endoloc_data::{DatasetMeta, DatasetWriter, StampedPose};
+use rayon::prelude::*;
+
+use crate::SimError;
+use crate::appearance::{MucosaAtlas, splitmix64};
+use crate::colon::{ColonModel, from_mesh, procedural};
+use crate::config::{ColonSource, SimConfig};
+use crate::render::{RenderScratch, Renderer};
+use crate::trajectory::{Pass, PassGenerator};
+
+/// What the driver reports while it works (called from worker threads).
+#[derive(Debug, Clone)]
+pub enum Progress<'a> {
+    /// A preparation stage started (colon, texture, passes).
+    Stage(&'a str),
+    /// Rendering of a sequence started, with its frame count.
+    SequenceStarted { name: &'a str, frames: usize },
+    /// One more frame of the current sequence is on disk.
+    FrameDone,
+}
+
+/// Summary of a finished simulation.
+#[derive(Debug, Clone)]
+pub struct SimSummary {
+    /// The dataset folder.
+    pub dataset: PathBuf,
+    /// Description of the colon model.
+    pub colon: String,
+    /// Mid-line length, mm.
+    pub colon_length_mm: f64,
+    /// Frames per sequence, `(name, frames)`.
+    pub sequences: Vec<(String, usize)>,
+    /// Smallest distance from the lens to the wall over all frames, mm.
+    pub min_clearance_mm: f64,
+    /// Wall-clock time of the rendering and writing, seconds.
+    pub render_seconds: f64,
+    /// Wall-clock time of everything, seconds.
+    pub total_seconds: f64,
+}
+
+impl SimSummary {
+    /// Rendered frames per second (rendering and PNG writing).
+    pub fn frames_per_second(&self) -> f64 {
+        let frames: usize = self.sequences.iter().map(|s| s.1).sum();
+        frames as f64 / self.render_seconds.max(1e-9)
+    }
+}
+
+/// Builds the colon a config describes.
+///
+/// # Errors
+/// Invalid parameters, or unreadable mesh/path/landmark files.
+pub fn build_colon(cfg: &SimConfig) -> Result<ColonModel, SimError> {
+    match &cfg.colon {
+        ColonSource::Procedural(p) => procedural::build(p),
+        ColonSource::Mesh(m) => from_mesh::build(m),
+    }
+}
+
+/// Runs a whole simulation and writes the dataset to `out` (train/ and test/ sequences).
+///
+/// Refuses to replace an existing `out` unless `overwrite`; the dataset appears at `out` only
+/// once complete.
+///
+/// # Errors
+/// Invalid config, unreadable inputs, or I/O errors while writing.
+pub fn simulate(
+    cfg: &SimConfig,
+    out: &Path,
+    overwrite: bool,
+    progress: &(dyn Fn(Progress<'_>) + Sync),
+) -> Result<SimSummary, SimError> {
+    let start = Instant::now();
+    cfg.validate()?;
+    let camera = cfg.camera.camera()?;
+    let mut meta = DatasetMeta::new(cfg.name.clone(), camera);
+    meta.source
+        .insert("generator".into(), "endoloc simulate".into());
+    meta.source
+        .insert("version".into(), env!("CARGO_PKG_VERSION").into());
+    let sim_table: toml::Table = toml::Table::try_from(cfg)
+        .map_err(|e| SimError::InvalidConfig(format!("cannot store the config: {e}")))?;
+    meta.simulation = Some(sim_table);
+    // Fail on an existing destination before any expensive work.
+    let writer = DatasetWriter::create(out, &meta, overwrite)?;
+
+    progress(Progress::Stage("colon"));
+    let colon = build_colon(cfg)?;
+    progress(Progress::Stage("texture"));
+    let atlas = MucosaAtlas::bake(&colon, &cfg.appearance)?;
+    progress(Progress::Stage("passes"));
+    let passes = [
+        ("train", PassGenerator::new(&colon, &cfg.train)?),
+        ("test", PassGenerator::new(&colon, &cfg.test)?),
+    ];
+    let renderer = Renderer::new(&colon, &atlas, camera, cfg.render.clone())?;
+
+    let render_start = Instant::now();
+    let mut sequences = Vec::new();
+    let mut min_clearance = f64::INFINITY;
+    for (name, generator) in &passes {
+        let pass = generator.generate();
+        min_clearance = pass
+            .clearance_mm
+            .iter()
+            .copied()
+            .fold(min_clearance, f64::min);
+        progress(Progress::SequenceStarted {
+            name,
+            frames: pass.poses.len(),
+        });
+        let seq = writer.sequence(name)?;
+        let seq_seed = splitmix64(generator.config().seed ^ 0x5EED);
+        render_pass(
+            &renderer,
+            generator,
+            &pass,
+            seq_seed,
+            cfg.depth,
+            |frame, rendered| {
+                let (w, h) = (camera.width, camera.height);
+                seq.write_rgb(frame, w, h, &rendered.rgb)?;
+                if cfg.depth {
+                    seq.write_depth(frame, w, h, &rendered.depth_mm)?;
+                }
+                progress(Progress::FrameDone);
+                Ok::<(), SimError>(())
+            },
+        )?;
+        let stamped: Vec<StampedPose> = pass
+            .timestamps_s
+            .iter()
+            .zip(&pass.poses)
+            .map(|(t, p)| StampedPose {
+                timestamp_s: *t,
+                pose: *p,
+            })
+            .collect();
+        seq.finish(&stamped, Some(&pass.sections))?;
+        sequences.push((name.to_string(), pass.poses.len()));
+    }
+    let render_seconds = render_start.elapsed().as_secs_f64();
+    let dataset = writer.finish()?;
+    Ok(SimSummary {
+        dataset,
+        colon: colon.description.clone(),
+        colon_length_mm: colon.centerline.length_mm(),
+        sequences,
+        min_clearance_mm: min_clearance,
+        render_seconds,
+        total_seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Renders every frame of a pass in parallel and hands each to `sink` (called from worker
+/// threads, in no particular order). Stops at the first error.
+///
+/// # Errors
+/// The first error returned by `sink`.
+pub fn render_pass<E: Send>(
+    renderer: &Renderer<'_>,
+    generator: &PassGenerator<'_>,
+    pass: &Pass,
+    seed: u64,
+    _depth: bool,
+    sink: impl Fn(usize, &crate::render::RenderedFrame) -> Result<(), E> + Sync,
+) -> Result<(), E> {
+    let samples = renderer.config().motion_blur_samples.max(1) | 1; // odd: middle = frame time
+    let shutter = renderer.config().shutter_fraction;
+    (0..pass.poses.len())
+        .into_par_iter()
+        .try_for_each_init(RenderScratch::default, |scratch, k| {
+            let sub: Vec<_> = if samples == 1 {
+                vec![(pass.poses[k], pass.s_mm[k])]
+            } else {
+                (0..samples)
+                    .map(|j| {
+                        let dt = (j as f64 / (samples - 1) as f64 - 0.5) * shutter;
+                        let (pose, s, _) = generator.pose_at(k as f64 + dt);
+                        (pose, s)
+                    })
+                    .collect()
+            };
+            let frame = renderer.render(&sub, splitmix64(seed ^ k as u64), scratch);
+            sink(k, &frame)
+        })
+}

@@ -1,0 +1,319 @@
+//! End-to-end checks of the simulator: conventions, lumen clearance, determinism, dataset
+//! output and bad inputs.
+
+use std::path::{Path, PathBuf};
+
+use endoloc_data::{Dataset, Section};
+use endoloc_geometry::Pose;
+use endoloc_sim::appearance::MucosaAtlas;
+use endoloc_sim::colon::ColonModel;
+use endoloc_sim::colon::from_mesh::MeshColonConfig;
+use endoloc_sim::config::{ColonSource, Preset, SimConfig};
+use endoloc_sim::render::{RenderScratch, Renderer};
+use endoloc_sim::simulate::build_colon;
+use endoloc_sim::trajectory::{Pass, PassGenerator};
+use nalgebra::{Point2, Point3};
+
+fn tiny_config(seed: u64) -> SimConfig {
+    let mut cfg = SimConfig::preset(Preset::Small).with_seed(seed);
+    cfg.camera.width = 160;
+    cfg.camera.height = 120;
+    cfg.train.frames = 40;
+    cfg.test.frames = 30;
+    cfg
+}
+
+fn gca_dir() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/gca-edin-00090");
+    if dir.join("large_intestine_path.jsn").is_file() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "SKIPPED: real CT colon not found at {} (shared data absent)",
+            dir.display()
+        );
+        None
+    }
+}
+
+/// Möller–Trumbore: does the open segment `a → b` cross triangle `t`?
+fn segment_hits_triangle(a: &Point3<f64>, b: &Point3<f64>, t: [Point3<f64>; 3]) -> bool {
+    let dir = b - a;
+    let e1 = t[1] - t[0];
+    let e2 = t[2] - t[0];
+    let p = dir.cross(&e2);
+    let det = e1.dot(&p);
+    if det.abs() < 1e-12 {
+        return false;
+    }
+    let inv = 1.0 / det;
+    let s = a - t[0];
+    let u = s.dot(&p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return false;
+    }
+    let q = s.cross(&e1);
+    let v = dir.dot(&q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return false;
+    }
+    let x = e2.dot(&q) * inv;
+    x > 1e-9 && x < 1.0 - 1e-9
+}
+
+/// Every pose is finite, at least `clearance` from the wall, and inside the lumen: the segment
+/// from the mid-line to the lens crosses no wall triangle.
+fn assert_inside_lumen(colon: &ColonModel, pass: &Pass, clearance: f64) {
+    let c = &colon.centerline;
+    for (k, (pose, s)) in pass.poses.iter().zip(&pass.s_mm).enumerate() {
+        let t = pose.translation.vector;
+        let q = pose.rotation.coords;
+        assert!(
+            t.iter().chain(q.iter()).all(|v| v.is_finite()),
+            "frame {k}: non-finite pose {pose:?}"
+        );
+        let p = Point3::from(t);
+        let (d, _) = colon.distance_to_surface(&p, s - 120.0, s + 120.0);
+        assert!(
+            d >= clearance - 1e-6,
+            "frame {k}: lens {d:.3} mm from the wall, clearance {clearance} mm"
+        );
+        let centre = c.point_at(*s);
+        let chunks = colon.mesh.chunks_between(s - 60.0, s + 60.0);
+        let crossings = colon.mesh.triangles[colon.mesh.triangle_range(chunks)]
+            .iter()
+            .filter(|t| {
+                segment_hits_triangle(&centre, &p, t.map(|v| colon.mesh.positions[v as usize]))
+            })
+            .count();
+        assert_eq!(crossings, 0, "frame {k}: the lens is outside the lumen");
+    }
+}
+
+#[test]
+fn procedural_passes_stay_inside_the_lumen_with_clearance() {
+    let cfg = SimConfig::preset(Preset::Small).with_seed(3);
+    let colon = build_colon(&cfg).unwrap();
+    for traj in [&cfg.train, &cfg.test] {
+        let pass = PassGenerator::new(&colon, traj).unwrap().generate();
+        assert_inside_lumen(&colon, &pass, traj.clearance_mm);
+        // The pass runs from the anal canal to the caecum.
+        assert_eq!(pass.sections[0], Section::AnalCanal);
+        assert_eq!(*pass.sections.last().unwrap(), Section::Caecum);
+    }
+}
+
+#[test]
+fn ct_mesh_passes_stay_inside_the_inflated_lumen() {
+    let Some(dir) = gca_dir() else { return };
+    let mut mesh = MeshColonConfig::from_gca_folder(&dir).unwrap();
+    mesh.surface = dir.join("large_intestine_20k.vtk"); // faster, same colon
+    let cfg = tiny_config(5).with_mesh_colon(mesh);
+    let colon = build_colon(&cfg).unwrap();
+    let len = colon.centerline.length_mm();
+    assert!((1300.0..1450.0).contains(&len), "mid-line {len} mm");
+    let ranges = colon.section_ranges();
+    let order: Vec<Section> = ranges.iter().map(|r| r.0).collect();
+    assert_eq!(order, Section::ALL.to_vec());
+    let mut traj = cfg.train.clone();
+    traj.frames = 400;
+    let pass = PassGenerator::new(&colon, &traj).unwrap().generate();
+    assert_inside_lumen(&colon, &pass, traj.clearance_mm);
+    assert_eq!(*pass.sections.last().unwrap(), Section::Caecum);
+}
+
+/// Pins the camera and pose conventions: a rendered pixel back-projected with its depth and
+/// its pose lands on the colon surface.
+#[test]
+fn rendered_pixels_back_project_onto_the_surface() {
+    let cfg = tiny_config(1);
+    let colon = build_colon(&cfg).unwrap();
+    let atlas = MucosaAtlas::bake(&colon, &cfg.appearance).unwrap();
+    let camera = cfg.camera.camera().unwrap();
+    let renderer = Renderer::new(&colon, &atlas, camera, cfg.render.clone()).unwrap();
+    let pass = PassGenerator::new(&colon, &cfg.train).unwrap().generate();
+    let mut scratch = RenderScratch::default();
+    let mut checked = 0;
+    for k in [0, 13, 27, 39] {
+        let pose: Pose = pass.poses[k];
+        let frame = renderer.render(&[(pose, pass.s_mm[k])], 0, &mut scratch);
+        for v in (3..camera.height).step_by(17) {
+            for u in (5..camera.width).step_by(23) {
+                let z = frame.depth_mm[(v * camera.width + u) as usize] as f64;
+                if z <= 0.0 {
+                    continue;
+                }
+                let p_cam = camera
+                    .unproject(&Point2::new(u as f64, v as f64), z)
+                    .unwrap();
+                let p_world = pose * p_cam;
+                let s = pass.s_mm[k];
+                let (d, _) = colon.distance_to_surface(&p_world, s - 60.0, s + 300.0);
+                assert!(
+                    d < 0.01 + 2e-4 * z,
+                    "frame {k} pixel ({u},{v}) depth {z:.2} mm lands {d:.4} mm off the surface"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 100, "only {checked} pixels had depth");
+}
+
+#[test]
+fn images_are_lit_from_the_tip_with_a_dark_lumen_ahead() {
+    let cfg = tiny_config(2);
+    let colon = build_colon(&cfg).unwrap();
+    let atlas = MucosaAtlas::bake(&colon, &cfg.appearance).unwrap();
+    let camera = cfg.camera.camera().unwrap();
+    let renderer = Renderer::new(&colon, &atlas, camera, cfg.render.clone()).unwrap();
+    let pass = PassGenerator::new(&colon, &cfg.train).unwrap().generate();
+    let frame = renderer.render(
+        &[(pass.poses[20], pass.s_mm[20])],
+        0,
+        &mut RenderScratch::default(),
+    );
+    // Brightness falls with depth: near pixels are brighter than far ones.
+    let (mut near, mut far) = (Vec::new(), Vec::new());
+    for (i, &z) in frame.depth_mm.iter().enumerate() {
+        let grey = frame.rgb[3 * i..3 * i + 3]
+            .iter()
+            .map(|&c| c as f64)
+            .sum::<f64>()
+            / 3.0;
+        if z > 0.0 && z < 15.0 {
+            near.push(grey);
+        } else if z > 60.0 || z == 0.0 {
+            far.push(grey);
+        }
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    assert!(!near.is_empty() && !far.is_empty());
+    assert!(
+        mean(&near) > 3.0 * mean(&far) + 10.0,
+        "near {:.1} far {:.1}",
+        mean(&near),
+        mean(&far)
+    );
+    // Mucosa is reddish.
+    let (r, g) = frame
+        .rgb
+        .chunks_exact(3)
+        .fold((0u64, 0u64), |(r, g), p| (r + p[0] as u64, g + p[1] as u64));
+    assert!(r > g, "red {r} green {g}");
+}
+
+#[test]
+fn same_seed_gives_identical_dataset_and_other_seed_differs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |seed: u64, name: &str| {
+        let out = tmp.path().join(name);
+        endoloc_sim::simulate(&tiny_config(seed), &out, false, &|_| {}).unwrap();
+        out
+    };
+    let a = run(9, "a");
+    let b = run(9, "b");
+    let c = run(10, "c");
+    for rel in [
+        "train/poses.txt",
+        "test/poses.txt",
+        "train/images/000017.png",
+        "test/depth/000003.png",
+    ] {
+        let fa = std::fs::read(a.join(rel)).unwrap();
+        assert_eq!(
+            fa,
+            std::fs::read(b.join(rel)).unwrap(),
+            "{rel} differs for the same seed"
+        );
+    }
+    assert_ne!(
+        std::fs::read(a.join("train/poses.txt")).unwrap(),
+        std::fs::read(c.join("train/poses.txt")).unwrap()
+    );
+    // train and test are different passes.
+    assert_ne!(
+        std::fs::read(a.join("train/images/000010.png")).unwrap(),
+        std::fs::read(a.join("test/images/000010.png")).unwrap()
+    );
+}
+
+#[test]
+fn simulate_writes_a_valid_dataset_and_refuses_to_overwrite() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("ds");
+    let cfg = tiny_config(4);
+    let summary = endoloc_sim::simulate(&cfg, &out, false, &|_| {}).unwrap();
+    assert_eq!(
+        summary.sequences,
+        vec![("train".into(), 40), ("test".into(), 30)]
+    );
+    let ds = Dataset::open(&out).unwrap();
+    assert_eq!(ds.meta.camera.width, 160);
+    let train = ds.sequence("train").unwrap();
+    assert_eq!(train.len(), 40);
+    assert_eq!(train.sections.as_ref().unwrap().len(), 40);
+    let img = train.load_rgb(5).unwrap();
+    assert_eq!(img.dimensions(), (160, 120));
+    let (w, h, depth) = train.load_depth_mm(5).unwrap();
+    assert_eq!((w, h), (160, 120));
+    assert!(depth.iter().any(|&d| d > 1.0));
+    // The stored config regenerates the same dataset.
+    let stored = SimConfig::from_toml_file(&out.join("dataset.toml")).unwrap();
+    assert_eq!(stored, cfg);
+    let report = endoloc_data::check_dataset(&out).unwrap();
+    assert!(report.is_ok(), "{report:?}");
+
+    let before = std::fs::read(out.join("train/poses.txt")).unwrap();
+    let err = endoloc_sim::simulate(&tiny_config(5), &out, false, &|_| {}).unwrap_err();
+    assert!(err.to_string().contains("exists"), "{err}");
+    assert_eq!(before, std::fs::read(out.join("train/poses.txt")).unwrap());
+    endoloc_sim::simulate(&tiny_config(5), &out, true, &|_| {}).unwrap();
+    assert_ne!(before, std::fs::read(out.join("train/poses.txt")).unwrap());
+}
+
+#[test]
+fn bad_mesh_inputs_give_errors_naming_the_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let vtk = tmp.path().join("colon.vtk");
+    std::fs::write(
+        &vtk,
+        "# vtk DataFile Version 1.0\ntest\nASCII\nDATASET POLYDATA\nPOINTS 4 float\n0 0 0\n1 0 0\n",
+    )
+    .unwrap();
+    let csv = tmp.path().join("path.csv");
+    std::fs::write(&csv, "x,y,z\n0,0,0\n0,0,10\n0,nan,20\n").unwrap();
+    let good_csv = tmp.path().join("good.csv");
+    std::fs::write(&good_csv, "x,y,z\n0,0,0\n0,0,100\n0,0,200\n").unwrap();
+
+    let mesh_cfg = |surface: &Path, path: &Path| MeshColonConfig {
+        surface: surface.to_path_buf(),
+        path: path.to_path_buf(),
+        landmarks: None,
+        inflation: 1.0,
+    };
+    let err = build_colon(&tiny_config(1).with_mesh_colon(mesh_cfg(&vtk, &csv)))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("path.csv") && err.contains('4'), "{err}");
+    let err = build_colon(&tiny_config(1).with_mesh_colon(mesh_cfg(&vtk, &good_csv)))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("colon.vtk"), "{err}");
+    let cfg = tiny_config(1).with_mesh_colon(mesh_cfg(&tmp.path().join("missing.ply"), &good_csv));
+    let err = cfg.validate().unwrap_err().to_string();
+    assert!(err.contains("missing.ply"), "{err}");
+}
+
+#[test]
+fn presets_have_the_documented_sizes() {
+    let paper = SimConfig::preset(Preset::Paper);
+    assert_eq!((paper.train.frames, paper.test.frames), (2610, 2603));
+    assert_eq!((paper.camera.width, paper.camera.height), (640, 480));
+    let cam = paper.camera.camera().unwrap();
+    assert!((cam.hfov_deg() - 90.0).abs() < 1e-9);
+    assert!(matches!(paper.colon, ColonSource::Procedural(_)));
+    let small = SimConfig::preset(Preset::Small);
+    assert!(small.train.frames <= 500 && small.camera.width < 640);
+    assert_ne!(small.train.seed, small.test.seed);
+}
