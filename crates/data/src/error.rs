@@ -51,6 +51,12 @@ pub enum DataError {
         /// What is wrong and what was expected.
         message: String,
     },
+    /// Anatomical landmarks that are missing or out of order (not tied to one file).
+    #[error("anatomical landmarks: {message}")]
+    Anatomy {
+        /// What is missing or wrong and what was expected.
+        message: String,
+    },
 }
 
 impl DataError {

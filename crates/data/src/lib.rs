@@ -4,6 +4,7 @@
 //! Conventions: lengths in millimetres, poses `T_wc` (camera-to-world), timestamps in seconds.
 
 pub mod anatomy;
+pub mod centerline;
 pub mod dataset;
 pub mod error;
 mod fsutil;
@@ -13,6 +14,10 @@ pub mod sections_csv;
 pub mod trajectory;
 
 pub use anatomy::Section;
+pub use centerline::{
+    Landmark, SectionRange, cumulative_length, read_gca_landmarks, read_path, section_ranges,
+    sections_from_landmarks,
+};
 pub use dataset::{Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, Sequence, SequenceWriter};
 pub use error::DataError;
 pub use mesh::{TriMesh, read_mesh};

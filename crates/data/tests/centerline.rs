@@ -1,0 +1,215 @@
+//! Mid-line paths, GCA landmarks and the sections cut from them.
+
+use endoloc_data::{
+    DataError, Landmark, Section, cumulative_length, read_gca_landmarks, read_path, section_ranges,
+    sections_from_landmarks,
+};
+use std::path::{Path, PathBuf};
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn gca_json_and_csv_paths() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let j = write(
+        d,
+        "p.jsn",
+        r#"{"n": 3, "points": [[0, 0, 0], [1.5, 0, 0], [1.5, 2, 0]], "tangents": [], "normals": []}"#,
+    );
+    let pts = read_path(&j).unwrap();
+    assert_eq!(pts.len(), 3);
+    assert_eq!(*cumulative_length(&pts).last().unwrap(), 3.5);
+
+    let c = write(d, "p.csv", "x,y,z\n# comment\n0,0,0\n1.5, 0, 0\n1.5;2;0\n");
+    assert_eq!(read_path(&c).unwrap(), pts);
+}
+
+#[test]
+fn gca_path_with_nan_names_the_point() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    // As Python's json.dump writes it.
+    let j = write(
+        d,
+        "p.jsn",
+        "{\"n\": 3,\n \"points\": [[0, 0, 0],\n [1, NaN, 0],\n [2, 0, 0]]}",
+    );
+    let err = read_path(&j).unwrap_err();
+    let msg = err.to_string();
+    assert!(matches!(err, DataError::Parse { .. }), "{err:?}");
+    assert!(
+        msg.contains("p.jsn") && msg.contains("point 1 ") && msg.contains("non-finite"),
+        "{msg}"
+    );
+
+    let j = write(
+        d,
+        "q.json",
+        "{\"n\": 4, \"points\": [[0, 0, 0], [1, 0, 0]]}",
+    );
+    let msg = read_path(&j).unwrap_err().to_string();
+    assert!(msg.contains("\"n\" is 4 but there are 2 points"), "{msg}");
+    let j = write(d, "r.json", "{\"n\": 2, \"points\": [[0, 0, 0], [1, 0]]}");
+    let msg = read_path(&j).unwrap_err().to_string();
+    assert!(msg.contains("point 1 has 2 coordinates"), "{msg}");
+
+    let c = write(d, "p.csv", "x,y,z\n0,0,0\n1,nan,0\n");
+    match read_path(&c).unwrap_err() {
+        DataError::Parse { line, message, .. } => {
+            assert_eq!(line, 3);
+            assert!(message.contains("not finite"), "{message}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let c = write(d, "q.csv", "0,0,0\n1,0\n");
+    let msg = read_path(&c).unwrap_err().to_string();
+    assert!(
+        msg.contains("q.csv:2:") && msg.contains("expected 3"),
+        "{msg}"
+    );
+}
+
+fn lm(abbr: &str, i: usize) -> Landmark {
+    Landmark {
+        name: abbr.to_string(),
+        abbreviation: abbr.to_string(),
+        path_index: i,
+    }
+}
+
+fn gca_like() -> Vec<Landmark> {
+    vec![
+        lm("anus", 0),
+        lm("RSJ", 84),
+        lm("DSJ", 323),
+        lm("SF", 771),
+        lm("HF", 1154),
+        lm("CCJ", 1278),
+        lm("ICVc", 1314),
+        lm("AO", 1352),
+    ]
+}
+
+/// The expected cut of the GCA 00090 path (1375 points).
+fn expected_ranges() -> Vec<(Section, usize, usize)> {
+    vec![
+        (Section::AnalCanal, 0, 28), // 84 / 3 < 30 points
+        (Section::Rectum, 28, 69),
+        (Section::Rectosigmoid, 69, 99),
+        (Section::Sigmoid, 99, 323),
+        (Section::Descending, 323, 731),
+        (Section::SplenicFlexure, 731, 811),
+        (Section::Transverse, 811, 1114),
+        (Section::HepaticFlexure, 1114, 1194),
+        (Section::Ascending, 1194, 1278),
+        (Section::Caecum, 1278, 1375),
+    ]
+}
+
+fn check_labels(labels: &[Section]) {
+    assert_eq!(labels.len(), 1375);
+    for (s, a, b) in expected_ranges() {
+        assert!(labels[a..b].iter().all(|&l| l == s), "{s} over {a}..{b}");
+    }
+    assert!(
+        labels.windows(2).all(|w| w[0] <= w[1]),
+        "labels must be in insertion order"
+    );
+}
+
+#[test]
+fn sections_follow_the_landmarks() {
+    let labels = sections_from_landmarks(1375, &gca_like()).unwrap();
+    check_labels(&labels);
+    let ranges = section_ranges(1375, &gca_like()).unwrap();
+    let got: Vec<_> = ranges.iter().map(|r| (r.section, r.start, r.end)).collect();
+    assert_eq!(got, expected_ranges());
+}
+
+#[test]
+fn sections_stay_ordered_and_non_empty_on_tiny_paths() {
+    let lms = vec![
+        lm("anus", 0),
+        lm("RSJ", 1),
+        lm("DSJ", 2),
+        lm("SF", 4),
+        lm("HF", 5),
+        lm("CCJ", 9),
+    ];
+    let labels = sections_from_landmarks(12, &lms).unwrap();
+    assert_eq!(labels.len(), 12);
+    for s in Section::ALL {
+        assert!(labels.contains(&s), "{s} missing: {labels:?}");
+    }
+    assert!(labels.windows(2).all(|w| w[0] <= w[1]), "{labels:?}");
+}
+
+#[test]
+fn missing_or_disordered_landmarks_are_named() {
+    let mut lms = gca_like();
+    lms.retain(|l| l.abbreviation != "SF");
+    let msg = sections_from_landmarks(1375, &lms).unwrap_err().to_string();
+    assert!(
+        msg.contains("missing landmark SF (splenic flexure)"),
+        "{msg}"
+    );
+
+    let mut lms = gca_like();
+    lms[2].path_index = 900; // DSJ after SF
+    let msg = sections_from_landmarks(1375, &lms).unwrap_err().to_string();
+    assert!(
+        msg.contains("SF") && msg.contains("DSJ") && msg.contains("order"),
+        "{msg}"
+    );
+
+    let msg = sections_from_landmarks(1200, &gca_like())
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("CCJ") && msg.contains("< 1200"), "{msg}");
+}
+
+fn gca_dir() -> Option<PathBuf> {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/gca-edin-00090");
+    if d.is_dir() {
+        Some(d)
+    } else {
+        eprintln!("SKIPPED: {} is absent", d.display());
+        None
+    }
+}
+
+#[test]
+fn real_gca_path_and_landmarks() {
+    let Some(d) = gca_dir() else { return };
+    let path = read_path(&d.join("large_intestine_path.jsn")).unwrap();
+    assert_eq!(path.len(), 1375);
+    let len = *cumulative_length(&path).last().unwrap();
+    assert!((len - 1391.5).abs() < 1.0, "path length {len} mm");
+
+    let lms = read_gca_landmarks(&d.join("EdinGCA_3D_00090_1_1.json")).unwrap();
+    let at = |a: &str| {
+        lms.iter()
+            .find(|l| l.abbreviation == a)
+            .map(|l| l.path_index)
+            .unwrap_or_else(|| panic!("{a} missing"))
+    };
+    assert_eq!(
+        ["anus", "RSJ", "DSJ", "SF", "HF", "CCJ", "ICVc", "AO", "AT"].map(at),
+        [0, 84, 323, 771, 1154, 1278, 1314, 1352, 1374]
+    );
+    // Small-intestine landmarks (another path) are left out.
+    assert!(
+        lms.iter()
+            .all(|l| l.abbreviation != "JIJ" && l.abbreviation != "OGJ")
+    );
+    assert_eq!(
+        lms.iter().find(|l| l.abbreviation == "RSJ").unwrap().name,
+        "recto-sigmoid junction"
+    );
+    check_labels(&sections_from_landmarks(path.len(), &lms).unwrap());
+}
