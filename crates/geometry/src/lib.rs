@@ -4,6 +4,9 @@
 //! `T_wc` (camera-to-world); OpenCV camera axes (x right, y down, z forward); pixel origin at
 //! the centre of the top-left pixel.
 
+// `!(x > limit)` is used on purpose throughout: it rejects NaN as well as small values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod camera;
 pub mod localize;
 pub mod pnp;

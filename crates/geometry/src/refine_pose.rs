@@ -274,11 +274,19 @@ impl Problem<'_> {
             let e = t.residual.norm();
             let w = kernel.weight(e);
             cost += kernel.cost(e);
-            let jt = t.d_pose.transpose();
-            h += (jt * w) * t.d_pose;
-            g += (jt * w) * t.residual;
+            // Upper triangle of the rank-2 update w·JᵀJ (mirrored once after the loop).
+            let j = &t.d_pose;
+            let (r0, r1) = (w * t.residual.x, w * t.residual.y);
+            for a in 0..6 {
+                let (wa0, wa1) = (w * j[(0, a)], w * j[(1, a)]);
+                for b in a..6 {
+                    h[(a, b)] += wa0 * j[(0, b)] + wa1 * j[(1, b)];
+                }
+                g[a] += j[(0, a)] * r0 + j[(1, a)] * r1;
+            }
             used += 1;
         }
+        h.fill_lower_triangle_with_upper_triangle();
         Linearization { cost, h, g, used }
     }
 
@@ -399,10 +407,23 @@ pub fn refine_pose(
         return Err(RefineError::TooFewCorrespondences { usable: start.used });
     }
 
+    let polish = cfg.polish_inliers && cfg.kernel != RobustKernel::None;
+    // With a polish to follow, the robust stage only has to settle the inlier set: it stops
+    // at a coarser step (1e-4 mm / 1e-6 rad by default) and the polish converges fully.
+    let robust_cfg = if polish {
+        RefineConfig {
+            min_step_mm: cfg.min_step_mm.max(1e-4),
+            min_step_rad: cfg.min_step_rad.max(1e-6),
+            min_relative_decrease: cfg.min_relative_decrease.max(1e-9),
+            ..*cfg
+        }
+    } else {
+        *cfg
+    };
     let (mut t_wc, mut lin, mut iterations, mut converged) =
-        problem.solve(*prior, &cfg.kernel, None, cfg);
+        problem.solve(*prior, &cfg.kernel, None, &robust_cfg);
     let mut inliers = inlier_mask(&t_wc, points_world, pixels, camera, cfg);
-    if cfg.polish_inliers && cfg.kernel != RobustKernel::None {
+    if polish {
         let count = inliers.iter().filter(|&&b| b).count();
         if count >= 3 {
             let (t2, _, it2, conv2) = problem.solve(t_wc, &RobustKernel::None, Some(&inliers), cfg);

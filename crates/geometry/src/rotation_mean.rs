@@ -149,7 +149,7 @@ pub fn geodesic_median(
             break; // every input coincides with the estimate
         }
         let step = num / den;
-        estimate = estimate * so3::exp_quaternion(&step);
+        estimate *= so3::exp_quaternion(&step);
         if step.norm() < cfg.tolerance_rad {
             break;
         }

@@ -195,7 +195,7 @@ pub fn p3p(points_world: &[Point3<f64>; 3], bearings: &[Vector3<f64>; 3]) -> Sol
         (p1 - p3).norm_squared(),
         (p1 - p2).norm_squared(),
     );
-    if !(a > 0.0 && b > 0.0 && c > 0.0) || ![c12, c13, c23].iter().all(|v| v.is_finite()) {
+    if !(a > 0.0 && b > 0.0 && c > 0.0 && [c12, c13, c23].iter().all(|v| v.is_finite())) {
         return out;
     }
     // Quadratics in u (leading coefficient b in both), coefficients ascending in v:
