@@ -225,14 +225,33 @@ impl MucosaAtlas {
         out
     }
 
-    /// Bilinear lookup of the micro-relief height alone (0..1).
+    /// Like [`MucosaAtlas::sample`], plus the gradient of the height: `(∂h/∂s per mm,
+    /// ∂h/∂θ per radian)`, from the same four texels (the bilinear patch's derivatives).
     #[inline]
-    pub fn sample_height(&self, s: f32, theta: f32) -> f32 {
+    pub fn sample_with_gradient(&self, s: f32, theta: f32) -> ([f32; 4], f32, f32) {
         let (i00, i01, i10, i11, fu, fv) = self.corners(s, theta);
-        let h = |i: usize| self.texels[i][3] as f32;
-        let a = h(i00) + (h(i01) - h(i00)) * fv;
-        let b = h(i10) + (h(i11) - h(i10)) * fv;
-        (a + (b - a) * fu) * (1.0 / 255.0)
+        let (t00, t01, t10, t11) = (
+            self.texels[i00],
+            self.texels[i01],
+            self.texels[i10],
+            self.texels[i11],
+        );
+        let mut out = [0f32; 4];
+        let mut rows = [0f32; 2];
+        for k in 0..4 {
+            let a = t00[k] as f32 + (t01[k] as f32 - t00[k] as f32) * fv;
+            let b = t10[k] as f32 + (t11[k] as f32 - t10[k] as f32) * fv;
+            out[k] = (a + (b - a) * fu) * (1.0 / 255.0);
+            if k == 3 {
+                rows = [a, b];
+            }
+        }
+        let dh_du = (rows[1] - rows[0]) * (1.0 / 255.0);
+        let c0 = t01[3] as f32 - t00[3] as f32;
+        let c1 = t11[3] as f32 - t10[3] as f32;
+        let dh_dv = (c0 + (c1 - c0) * fu) * (1.0 / 255.0);
+        let rad_per_texel = std::f32::consts::TAU / self.theta_texels as f32;
+        (out, dh_du / self.texel_mm, dh_dv / rad_per_texel)
     }
 
     /// Texel indices of the four bilinear corners and the fractional offsets.

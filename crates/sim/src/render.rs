@@ -363,15 +363,21 @@ impl<'a> Renderer<'a> {
         let specular = cfg.specular as f32;
         let squarings = cfg.shininess.clamp(2, 256).ilog2();
         let bump = cfg.bump as f32;
+        let bump_k = bump * 0.6;
         let atlas = self.atlas;
-        let dh_s = atlas.texel_mm; // finite-difference step along s, mm
-        let dh_t = std::f32::consts::TAU / atlas.theta_texels as f32; // along θ, rad
+        // Per-triangle data, reused while consecutive pixels hit the same triangle.
+        let mut cached_tid = NO_TRI;
+        let mut tri_data = TriangleShading::default();
         for (i, &tid) in scratch.tri.iter().enumerate() {
             if tid == NO_TRI {
                 continue;
             }
             let t = mesh.triangles[tid as usize];
             let idx = t.map(|v| v as usize - v0);
+            if tid != cached_tid {
+                cached_tid = tid;
+                tri_data = TriangleShading::new(mesh, t, idx, &scratch.verts);
+            }
             let (l1, l2) = (scratch.l1[i], scratch.l2[i]);
             let l0 = 1.0 - l1 - l2;
             let lam = [l0, l1, l2];
@@ -385,57 +391,19 @@ impl<'a> Renderer<'a> {
                     nrm[c] += lam[k] * nv[c];
                 }
             }
-            let s_v = t.map(|v| mesh.s_mm[v as usize]);
-            let th0 = mesh.theta[t[0] as usize];
-            let unwrap = |th: f32| {
-                let mut d = th - th0;
-                if d > std::f32::consts::PI {
-                    d -= std::f32::consts::TAU;
-                } else if d < -std::f32::consts::PI {
-                    d += std::f32::consts::TAU;
-                }
-                d
-            };
-            let (dt1, dt2) = (
-                unwrap(mesh.theta[t[1] as usize]),
-                unwrap(mesh.theta[t[2] as usize]),
-            );
-            let s = l0 * s_v[0] + l1 * s_v[1] + l2 * s_v[2];
-            let theta = th0 + l1 * dt1 + l2 * dt2;
-            let tex = atlas.sample(s, theta);
+            let s = l0 * tri_data.s[0] + l1 * tri_data.s[1] + l2 * tri_data.s[2];
+            let theta = tri_data.theta0 + l1 * tri_data.dtheta[0] + l2 * tri_data.dtheta[1];
+            let (tex, gs, gt) = atlas.sample_with_gradient(s, theta);
 
             // Micro-relief: perturb the normal along the surface directions of s and θ.
             let mut n = normalize(nrm);
-            if bump > 0.0 {
-                let gs = (atlas.sample_height(s + dh_s, theta) - tex[3]) / dh_s;
-                let gt = (atlas.sample_height(s, theta + dh_t) - tex[3]) / dh_t;
-                let a = scratch.verts[idx[0]];
-                let e1 = sub(scratch.verts[idx[1]], a);
-                let e2 = sub(scratch.verts[idx[2]], a);
-                let (ds1, ds2) = (s_v[1] - s_v[0], s_v[2] - s_v[0]);
-                let det = ds1 * dt2 - ds2 * dt1;
-                if det.abs() > 1e-9 {
-                    // [e1 e2] = [∂p/∂s ∂p/∂θ] · [[ds1 ds2] [dt1 dt2]]
-                    let inv = 1.0 / det;
-                    let ps = [
-                        (e1[0] * dt2 - e2[0] * dt1) * inv,
-                        (e1[1] * dt2 - e2[1] * dt1) * inv,
-                        (e1[2] * dt2 - e2[2] * dt1) * inv,
-                    ];
-                    let pt = [
-                        (e2[0] * ds1 - e1[0] * ds2) * inv,
-                        (e2[1] * ds1 - e1[1] * ds2) * inv,
-                        (e2[2] * ds1 - e1[2] * ds2) * inv,
-                    ];
-                    let (ls, lt) = (norm(ps).max(1e-6), norm(pt).max(1e-6));
-                    // Height gradient per mm along each surface direction.
-                    let (gs_mm, gt_mm) = (gs / ls, gt / lt);
-                    let k = bump * 0.6;
-                    for c in 0..3 {
-                        n[c] -= k * (gs_mm * ps[c] / ls + gt_mm * pt[c] / lt);
-                    }
-                    n = normalize(n);
+            if bump > 0.0 && tri_data.has_frame {
+                // Height gradient per mm along each unit surface direction.
+                let (a, b) = (bump_k * gs * tri_data.inv_ls, bump_k * gt * tri_data.inv_lt);
+                for c in 0..3 {
+                    n[c] -= a * tri_data.dir_s[c] + b * tri_data.dir_t[c];
                 }
+                n = normalize(n);
             }
 
             let d2 = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).max(1e-6);
@@ -491,6 +459,79 @@ impl<'a> Renderer<'a> {
     }
 }
 
+/// Per-triangle shading data: surface coordinates at the vertices and the unit surface
+/// directions of increasing `s` and `θ` (camera frame).
+#[derive(Default, Clone, Copy)]
+struct TriangleShading {
+    s: [f32; 3],
+    theta0: f32,
+    /// θ of vertices 1 and 2 relative to vertex 0, unwrapped to (−π, π].
+    dtheta: [f32; 2],
+    has_frame: bool,
+    dir_s: [f32; 3],
+    dir_t: [f32; 3],
+    /// 1 / ‖∂p/∂s‖ (s-mm per surface-mm) and 1 / ‖∂p/∂θ‖ (rad per mm).
+    inv_ls: f32,
+    inv_lt: f32,
+}
+
+impl TriangleShading {
+    fn new(
+        mesh: &crate::colon::SurfaceMesh,
+        t: [u32; 3],
+        idx: [usize; 3],
+        verts: &[[f32; 3]],
+    ) -> Self {
+        let s = t.map(|v| mesh.s_mm[v as usize]);
+        let theta0 = mesh.theta[t[0] as usize];
+        let unwrap = |th: f32| {
+            let mut d = th - theta0;
+            if d > std::f32::consts::PI {
+                d -= std::f32::consts::TAU;
+            } else if d < -std::f32::consts::PI {
+                d += std::f32::consts::TAU;
+            }
+            d
+        };
+        let (dt1, dt2) = (
+            unwrap(mesh.theta[t[1] as usize]),
+            unwrap(mesh.theta[t[2] as usize]),
+        );
+        let mut out = TriangleShading {
+            s,
+            theta0,
+            dtheta: [dt1, dt2],
+            ..Default::default()
+        };
+        let a = verts[idx[0]];
+        let e1 = sub(verts[idx[1]], a);
+        let e2 = sub(verts[idx[2]], a);
+        let (ds1, ds2) = (s[1] - s[0], s[2] - s[0]);
+        let det = ds1 * dt2 - ds2 * dt1;
+        if det.abs() > 1e-9 {
+            // [e1 e2] = [∂p/∂s ∂p/∂θ] · [[ds1 ds2] [dt1 dt2]]
+            let inv = 1.0 / det;
+            let ps = [
+                (e1[0] * dt2 - e2[0] * dt1) * inv,
+                (e1[1] * dt2 - e2[1] * dt1) * inv,
+                (e1[2] * dt2 - e2[2] * dt1) * inv,
+            ];
+            let pt = [
+                (e2[0] * ds1 - e1[0] * ds2) * inv,
+                (e2[1] * ds1 - e1[1] * ds2) * inv,
+                (e2[2] * ds1 - e1[2] * ds2) * inv,
+            ];
+            let (ls, lt) = (norm(ps).max(1e-6), norm(pt).max(1e-6));
+            out.has_frame = true;
+            out.dir_s = ps.map(|x| x / ls);
+            out.dir_t = pt.map(|x| x / lt);
+            out.inv_ls = 1.0 / ls;
+            out.inv_lt = 1.0 / lt;
+        }
+        out
+    }
+}
+
 #[derive(Clone, Copy)]
 struct Intrinsics {
     fx: f32,
@@ -539,10 +580,10 @@ impl VisBuffer<'_> {
         if !(area.abs() > 1e-12) {
             return;
         }
-        let xmin = x[0].min(x[1]).min(x[2]).max(0.0).ceil();
-        let xmax = x[0].max(x[1]).max(x[2]).min((self.w - 1) as f32).floor();
-        let ymin = y[0].min(y[1]).min(y[2]).max(0.0).ceil();
-        let ymax = y[0].max(y[1]).max(y[2]).min((self.h - 1) as f32).floor();
+        let xmin = ceil_f(x[0].min(x[1]).min(x[2]).max(0.0));
+        let xmax = floor_f(x[0].max(x[1]).max(x[2]).min((self.w - 1) as f32));
+        let ymin = ceil_f(y[0].min(y[1]).min(y[2]).max(0.0));
+        let ymax = floor_f(y[0].max(y[1]).max(y[2]).min((self.h - 1) as f32));
         if xmin > xmax || ymin > ymax {
             return;
         }
@@ -570,9 +611,9 @@ impl VisBuffer<'_> {
                 let a = e[k].0;
                 let bound = (-EPS - row[k]) / a;
                 if a > 0.0 {
-                    lo = lo.max(bound.ceil());
+                    lo = lo.max(ceil_f(bound.max(-1.0)));
                 } else if a < 0.0 {
-                    hi = hi.min(bound.floor());
+                    hi = hi.min(floor_f(bound.min(self.w as f32)));
                 } else if row[k] < -EPS {
                     empty = true;
                 }
@@ -599,6 +640,20 @@ impl VisBuffer<'_> {
             }
         }
     }
+}
+
+/// `floor` for values in a small range, without a libm call on baseline x86-64.
+#[inline]
+fn floor_f(x: f32) -> f32 {
+    let t = x as i32 as f32;
+    if t > x { t - 1.0 } else { t }
+}
+
+/// `ceil` likewise.
+#[inline]
+fn ceil_f(x: f32) -> f32 {
+    let t = x as i32 as f32;
+    if t < x { t + 1.0 } else { t }
 }
 
 #[inline]
