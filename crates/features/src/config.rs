@@ -60,7 +60,8 @@ pub struct SurfConfig {
     /// The output is identical either way. Default true.
     pub parallel: bool,
     /// Largest image accepted, in pixels; bigger images get
-    /// [`FeatureError::ImageTooLarge`] instead of allocating gigabytes. Default 50 000 000.
+    /// [`FeatureError::ImageTooLarge`] instead of allocating gigabytes (memory use is about
+    /// 32 bytes per pixel). Default 16 777 216 (4096 × 4096).
     pub max_pixels: usize,
 }
 
@@ -74,7 +75,7 @@ impl Default for SurfConfig {
             upright: false,
             extended: false,
             parallel: true,
-            max_pixels: 50_000_000,
+            max_pixels: 1 << 24,
         }
     }
 }

@@ -37,12 +37,14 @@ pub(crate) struct LayerFilter {
     xy: [usize; 16],
     inv_lobe_area: f64,
     inv_quadrant_area: f64,
+    /// Largest entry of `xx`, `yy` and `xy`.
+    max_offset: usize,
 }
 
 impl LayerFilter {
     pub(crate) fn new(size: usize, stride: usize) -> Self {
         let lobe = size / 3;
-        let even = usize::from(size % 2 == 0);
+        let even = usize::from(size.is_multiple_of(2));
         let reach_lo = size / 2;
         let reach_hi = size - reach_lo;
         let lobe_h = 2 * lobe - 1 - even;
@@ -78,7 +80,9 @@ impl LayerFilter {
         for (i, b) in [tl, br, tr, bl].iter().enumerate() {
             xy[4 * i..4 * i + 4].copy_from_slice(b);
         }
+        let max_offset = xx.iter().chain(&yy).chain(&xy).copied().max().unwrap_or(0);
         Self {
+            max_offset,
             size,
             reach_lo,
             reach_hi,
@@ -91,19 +95,28 @@ impl LayerFilter {
     }
 
     /// `(Dxx, Dyy, Dxy)` at the filter whose top-left integral corner is `base`.
+    ///
+    /// # Panics
+    /// When the filter reaches outside `d` — callers only pass samples from
+    /// [`LayerFilter::valid_range`], for which it never does.
     #[inline(always)]
     fn responses(&self, d: &[f64], base: usize) -> (f64, f64, f64) {
+        // One bounds check for the whole filter.
+        let win = &d[base..=base + self.max_offset];
         #[inline(always)]
-        fn bx(d: &[f64], base: usize, c: &[usize]) -> f64 {
-            d[base + c[0]] - d[base + c[1]] - d[base + c[2]] + d[base + c[3]]
+        fn bx(w: &[f64], c: &[usize]) -> f64 {
+            // SAFETY: every corner offset is ≤ `max_offset` (the maximum over all of them,
+            // computed in `new`), and `w` has `max_offset + 1` elements.
+            unsafe {
+                w.get_unchecked(c[0]) - w.get_unchecked(c[1]) - w.get_unchecked(c[2])
+                    + w.get_unchecked(c[3])
+            }
         }
-        let dxx =
-            (bx(d, base, &self.xx[0..4]) - 3.0 * bx(d, base, &self.xx[4..8])) * self.inv_lobe_area;
-        let dyy =
-            (bx(d, base, &self.yy[0..4]) - 3.0 * bx(d, base, &self.yy[4..8])) * self.inv_lobe_area;
-        let dxy = (bx(d, base, &self.xy[0..4]) + bx(d, base, &self.xy[4..8])
-            - bx(d, base, &self.xy[8..12])
-            - bx(d, base, &self.xy[12..16]))
+        let dxx = (bx(win, &self.xx[0..4]) - 3.0 * bx(win, &self.xx[4..8])) * self.inv_lobe_area;
+        let dyy = (bx(win, &self.yy[0..4]) - 3.0 * bx(win, &self.yy[4..8])) * self.inv_lobe_area;
+        let dxy = (bx(win, &self.xy[0..4]) + bx(win, &self.xy[4..8])
+            - bx(win, &self.xy[8..12])
+            - bx(win, &self.xy[12..16]))
             * self.inv_quadrant_area;
         (dxx, dyy, dxy)
     }
@@ -154,9 +167,9 @@ fn compute_layer(ii: &IntegralImage, filter: LayerFilter, grid: Grid, parallel: 
             return;
         }
         let y_top = ky * grid.step - f.reach_lo;
-        for (kx, o) in out.iter_mut().enumerate().take(x_hi + 1).skip(x_lo) {
-            let base = y_top * stride + kx * grid.step - f.reach_lo;
-            let (dxx, dyy, dxy) = f.responses(data, base);
+        let row_base = y_top * stride + x_lo * grid.step - f.reach_lo;
+        for (k, o) in out[x_lo..=x_hi].iter_mut().enumerate() {
+            let (dxx, dyy, dxy) = f.responses(data, row_base + k * grid.step);
             *o = (dxx * dyy - 0.81 * dxy * dxy) as f32;
         }
     };
@@ -311,7 +324,7 @@ fn interpolate(
     if off.iter().any(|o| !o.is_finite() || o.abs() >= 1.0) {
         return None;
     }
-    let half = if mid.filter.size % 2 == 0 { 0.5 } else { 0.0 };
+    let half = if mid.filter.size.is_multiple_of(2) { 0.5 } else { 0.0 };
     let step = grid.step as f64;
     let x = kx as f64 * step - half + off[0] * step;
     let y = ky as f64 * step - half + off[1] * step;
@@ -363,7 +376,7 @@ mod tests {
     /// Brute-force box filter response for the same geometry, from pixel loops.
     fn naive_responses(px: &[f64], w: usize, x: usize, y: usize, size: usize) -> (f64, f64, f64) {
         let lobe = size / 3;
-        let even = size % 2 == 0;
+        let even = size.is_multiple_of(2);
         let lobe_h = 2 * lobe - 1 - usize::from(even);
         let sum = |x0: i64, y0: i64, x1: i64, y1: i64| {
             let mut s = 0.0;
