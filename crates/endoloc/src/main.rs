@@ -26,6 +26,7 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     Simulate(cmd::simulate::Args),
+    Features(cmd::features::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -33,6 +34,7 @@ fn main() -> std::process::ExitCode {
     ui::init_logging(cli.verbose);
     let result = match cli.command {
         Command::Simulate(args) => cmd::simulate::run(args),
+        Command::Features(args) => cmd::features::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
