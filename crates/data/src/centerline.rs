@@ -305,7 +305,7 @@ pub fn read_gca_landmarks(path: &Path) -> Result<Vec<Landmark>, DataError> {
     })?;
     let mut out: Vec<Landmark> = raws
         .into_iter()
-        .filter(|r| r.paths.iter().any(|p| *p == path_id))
+        .filter(|r| r.paths.contains(&path_id))
         .map(|r| r.lm)
         .collect();
     out.sort_by_key(|l| l.path_index);

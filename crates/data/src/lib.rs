@@ -5,9 +5,11 @@
 
 pub mod anatomy;
 pub mod centerline;
+pub mod check;
 pub mod dataset;
 pub mod error;
 mod fsutil;
+pub mod info;
 pub mod mesh;
 pub mod png_io;
 pub mod sections_csv;
@@ -18,8 +20,10 @@ pub use centerline::{
     Landmark, SectionRange, cumulative_length, read_gca_landmarks, read_path, section_ranges,
     sections_from_landmarks,
 };
+pub use check::{CheckReport, Problem, check_dataset};
 pub use dataset::{Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, Sequence, SequenceWriter};
 pub use error::DataError;
+pub use info::{DatasetInfo, SequenceInfo, dataset_info};
 pub use mesh::{TriMesh, read_mesh};
 pub use png_io::{MAX_DEPTH_MM, depth_code_from_mm, depth_mm_from_code};
 pub use sections_csv::{read_sections, write_sections};

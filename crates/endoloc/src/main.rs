@@ -27,6 +27,7 @@ struct Cli {
 enum Command {
     Simulate(cmd::simulate::Args),
     Features(cmd::features::Args),
+    Dataset(cmd::dataset::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -35,6 +36,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Simulate(args) => cmd::simulate::run(args),
         Command::Features(args) => cmd::features::run(args),
+        Command::Dataset(args) => cmd::dataset::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

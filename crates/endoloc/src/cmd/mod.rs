@@ -1,4 +1,5 @@
 //! One module per subcommand.
 
+pub mod dataset;
 pub mod features;
 pub mod simulate;
