@@ -1,0 +1,26 @@
+//! Trajectory evaluation for endoloc: the numbers, plots and report of a localization run.
+//!
+//! Inputs: the test sequence's ground truth (`poses.txt`, TUM), the run's estimate
+//! (`trajectory.txt`, TUM), optionally its `frames.csv` ([`frames_csv`]) and the test frames'
+//! true zones (`zones.csv`, [`zones_csv`]). Outputs: `metrics.json` ([`metrics`]), a per-frame
+//! error table, plots ([`plots`]) and `report.md` ([`report`]).
+//!
+//! The metrics reproduce evo (<https://github.com/MichaelGrupp/evo>, checked against 1.38):
+//! association by timestamp ([`association`]), APE ([`ape`]), RPE ([`rpe`]), Umeyama
+//! alignment ([`align`]) and its statistics ([`stats`]).
+//!
+//! Conventions (DESIGN.md): poses `T_wc` camera-to-world, millimetres, timestamps in seconds;
+//! position error `‖t_est − t_gt‖` mm, orientation error the geodesic angle of
+//! `R_estᵀ R_gt` in degrees.
+
+pub mod ape;
+pub mod association;
+pub mod error;
+pub mod output;
+pub mod stats;
+
+pub use ape::{PoseRelation, ape_errors};
+pub use association::{Association, AssociationConfig, MatchedPair, associate};
+pub use error::EvalError;
+pub use output::{OutputDir, write_atomic};
+pub use stats::Statistics;

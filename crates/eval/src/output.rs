@@ -1,0 +1,92 @@
+//! Output files: atomic writes and the no-overwrite rule.
+//!
+//! Every file is written to a hidden temporary sibling, flushed, then renamed over its final
+//! name, so a reader (or a crash) never sees half a file. An output folder's existing files are
+//! only replaced when the caller asks (`--force`); the check covers every file of a run
+//! before the first one is written.
+
+use std::fs::File;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::EvalError;
+
+static COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, flushed, renamed).
+///
+/// # Errors
+/// [`EvalError::Io`] naming the file that failed; the temporary file is removed.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), EvalError> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let tmp_name = format!(".{name}.tmp-{}-{n}", std::process::id());
+    let tmp = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.join(tmp_name),
+        _ => PathBuf::from(tmp_name),
+    };
+    let result = (|| {
+        let mut f = File::create(&tmp).map_err(|e| EvalError::io(&tmp, e))?;
+        f.write_all(bytes).map_err(|e| EvalError::io(&tmp, e))?;
+        f.sync_all().map_err(|e| EvalError::io(&tmp, e))?;
+        drop(f);
+        std::fs::rename(&tmp, path).map_err(|e| EvalError::io(path, e))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// An output folder whose files may be written: created if missing; refuses when one of the
+/// files a run will write already exists, unless `force`.
+#[derive(Debug, Clone)]
+pub struct OutputDir {
+    dir: PathBuf,
+}
+
+impl OutputDir {
+    /// Prepares `dir` for writing the files `names` (relative to `dir`).
+    ///
+    /// # Errors
+    /// [`EvalError::AlreadyExists`] for the first of `names` that exists when `force` is
+    /// false (nothing is written); [`EvalError::Io`] if the folder cannot be created or
+    /// `dir` is a file.
+    pub fn prepare(dir: &Path, names: &[&str], force: bool) -> Result<Self, EvalError> {
+        if dir.exists() && !dir.is_dir() {
+            return Err(EvalError::io(
+                dir,
+                std::io::Error::other("exists and is not a folder; expected an output folder"),
+            ));
+        }
+        if !force {
+            for name in names {
+                let p = dir.join(name);
+                if p.exists() {
+                    return Err(EvalError::AlreadyExists { path: p });
+                }
+            }
+        }
+        std::fs::create_dir_all(dir).map_err(|e| EvalError::io(dir, e))?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+        })
+    }
+
+    /// The path of `name` inside the folder.
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.dir.join(name)
+    }
+
+    /// Writes `name` atomically.
+    ///
+    /// # Errors
+    /// [`EvalError::Io`] as [`write_atomic`].
+    pub fn write(&self, name: &str, bytes: &[u8]) -> Result<(), EvalError> {
+        write_atomic(&self.path(name), bytes)
+    }
+}
