@@ -13,14 +13,18 @@
 //! position error `‖t_est − t_gt‖` mm, orientation error the geodesic angle of
 //! `R_estᵀ R_gt` in degrees.
 
+pub mod align;
 pub mod ape;
 pub mod association;
 pub mod error;
 pub mod output;
+pub mod rpe;
 pub mod stats;
 
+pub use align::{AlignmentKind, Similarity3, align_trajectory, umeyama};
 pub use ape::{PoseRelation, ape_errors};
 pub use association::{Association, AssociationConfig, MatchedPair, associate};
 pub use error::EvalError;
 pub use output::{OutputDir, write_atomic};
+pub use rpe::{RpeConfig, RpeErrors, rpe_errors};
 pub use stats::Statistics;
