@@ -39,9 +39,10 @@ pub(crate) fn parent_dir(path: &Path) -> PathBuf {
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DataError> {
     let tmp = hidden_sibling(path, "tmp");
     let result = (|| {
-        let mut f = File::create(&tmp).map_err(|e| DataError::io(&tmp, e))?;
-        f.write_all(bytes).map_err(|e| DataError::io(&tmp, e))?;
-        f.sync_all().map_err(|e| DataError::io(&tmp, e))?;
+        // Errors name the destination: the temporary name means nothing to a user.
+        let mut f = File::create(&tmp).map_err(|e| DataError::io(path, e))?;
+        f.write_all(bytes).map_err(|e| DataError::io(path, e))?;
+        f.sync_all().map_err(|e| DataError::io(path, e))?;
         drop(f);
         std::fs::rename(&tmp, path).map_err(|e| DataError::io(path, e))?;
         sync_dir(&parent_dir(path));

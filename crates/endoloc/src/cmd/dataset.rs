@@ -49,13 +49,8 @@ pub fn run(args: Args) -> Result<()> {
             Ok(())
         }
         Command::Info { dir } => {
-            let info = dataset_info(&dir).with_context(|| {
-                format!(
-                    "cannot summarize {} (run `endoloc dataset check {}` for every problem)",
-                    dir.display(),
-                    dir.display()
-                )
-            })?;
+            let info = dataset_info(&dir)
+                .with_context(|| format!("cannot summarize {}", dir.display()))?;
             print!("{info}");
             Ok(())
         }
