@@ -17,14 +17,21 @@ pub mod align;
 pub mod ape;
 pub mod association;
 pub mod error;
+pub mod frames_csv;
 pub mod output;
 pub mod rpe;
 pub mod stats;
+pub mod zones_csv;
 
 pub use align::{AlignmentKind, Similarity3, align_trajectory, umeyama};
 pub use ape::{PoseRelation, ape_errors};
 pub use association::{Association, AssociationConfig, MatchedPair, associate};
 pub use error::EvalError;
+pub use frames_csv::{
+    FRAMES_CSV_HEADER, FrameRecord, format_frames_csv, parse_frames_csv, read_frames_csv,
+    write_frames_csv,
+};
 pub use output::{OutputDir, write_atomic};
 pub use rpe::{RpeConfig, RpeErrors, rpe_errors};
 pub use stats::Statistics;
+pub use zones_csv::{ZONES_CSV_HEADER, ZoneLabel, read_zones_csv};

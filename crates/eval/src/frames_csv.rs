@@ -1,0 +1,315 @@
+//! `frames.csv`: one row per test frame of a localization run (DESIGN.md, results on disk).
+//!
+//! The header is exactly [`FRAMES_CSV_HEADER`]:
+//!
+//! ```text
+//! frame,zone,zone_score,status,reason,inliers,reprojection_rms_px,time_ms
+//! 0,12,0.8731,refined,,143,0.84,41.2
+//! 1,12,0.8012,init_only,too_few_inliers,5,,38.9
+//! 2,-1,,rejected,jump_too_large,61,1.20,40.0
+//! ```
+//!
+//! | column | meaning |
+//! |---|---|
+//! | `frame` | 0-based test frame index = line order of the test sequence's `poses.txt` |
+//! | `zone` | predicted zone index (0-based); `-1` or empty when none |
+//! | `zone_score` | score of the predicted zone (e.g. descriptor similarity); empty when none |
+//! | `status` | `refined` \| `init_only` \| `rejected` ([`endoloc_geometry::Status`]) |
+//! | `reason` | why the frame is not `refined`: a keyword without commas or quotes (`Reason::code`); empty when refined |
+//! | `inliers` | inlier count of the pose refinement; empty when not attempted |
+//! | `reprojection_rms_px` | inlier reprojection RMS, pixels; empty when not available |
+//! | `time_ms` | wall time spent on the frame, milliseconds |
+//!
+//! No quoting: fields never contain commas. Blank lines are ignored.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use endoloc_geometry::Status;
+use serde::{Deserialize, Serialize};
+
+use crate::EvalError;
+use crate::output::write_atomic;
+
+/// The header line of `frames.csv`, exactly.
+pub const FRAMES_CSV_HEADER: &str =
+    "frame,zone,zone_score,status,reason,inliers,reprojection_rms_px,time_ms";
+
+const COLUMNS: usize = 8;
+
+/// One row of `frames.csv`: what the localizer did with one test frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameRecord {
+    /// 0-based test frame index (line order of the test `poses.txt`).
+    pub frame: usize,
+    /// Predicted zone index, `None` when no zone was chosen (written `-1`).
+    pub zone: Option<usize>,
+    /// Score of the predicted zone (higher is more confident), `None` when none.
+    pub zone_score: Option<f64>,
+    /// Outcome of the validity check.
+    pub status: Status,
+    /// Keyword saying why the frame is not `refined` (empty when refined); no commas, quotes
+    /// or line breaks.
+    pub reason: String,
+    /// Inliers of the pose refinement, `None` when it was not attempted.
+    pub inliers: Option<usize>,
+    /// Inlier reprojection RMS, pixels; `None` when not available.
+    pub reprojection_rms_px: Option<f64>,
+    /// Wall time spent on the frame, milliseconds.
+    pub time_ms: f64,
+}
+
+/// Parses a status word: `refined`, `init_only` or `rejected`.
+///
+/// # Errors
+/// A message naming the accepted words.
+pub fn status_from_str(word: &str) -> Result<Status, String> {
+    match word {
+        "refined" => Ok(Status::Refined),
+        "init_only" => Ok(Status::InitOnly),
+        "rejected" => Ok(Status::Rejected),
+        _ => Err(format!(
+            "status {word:?} is not one of refined, init_only, rejected"
+        )),
+    }
+}
+
+fn opt_f64(s: &str, name: &str) -> Result<Option<f64>, String> {
+    if s.is_empty() {
+        return Ok(None);
+    }
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("{name}: {s:?} is not a number (or empty)"))?;
+    if !v.is_finite() {
+        return Err(format!("{name}: {s} is not finite"));
+    }
+    Ok(Some(v))
+}
+
+fn opt_usize(s: &str, name: &str) -> Result<Option<usize>, String> {
+    if s.is_empty() {
+        return Ok(None);
+    }
+    s.parse()
+        .map(Some)
+        .map_err(|_| format!("{name}: {s:?} is not a non-negative integer (or empty)"))
+}
+
+fn parse_row(line: &str) -> Result<FrameRecord, String> {
+    let cols: Vec<&str> = line.split(',').map(str::trim).collect();
+    if cols.len() != COLUMNS {
+        return Err(format!(
+            "expected {COLUMNS} comma-separated columns ({FRAMES_CSV_HEADER}); found {}",
+            cols.len()
+        ));
+    }
+    let frame = cols[0]
+        .parse()
+        .map_err(|_| format!("frame: {:?} is not a non-negative integer", cols[0]))?;
+    let zone = match cols[1] {
+        "" | "-1" => None,
+        z => Some(
+            z.parse()
+                .map_err(|_| format!("zone: {z:?} is not a zone index, -1 or empty"))?,
+        ),
+    };
+    let time_ms = opt_f64(cols[7], "time_ms")?.ok_or("time_ms: empty; expected milliseconds")?;
+    Ok(FrameRecord {
+        frame,
+        zone,
+        zone_score: opt_f64(cols[2], "zone_score")?,
+        status: status_from_str(cols[3])?,
+        reason: cols[4].to_string(),
+        inliers: opt_usize(cols[5], "inliers")?,
+        reprojection_rms_px: opt_f64(cols[6], "reprojection_rms_px")?,
+        time_ms,
+    })
+}
+
+/// Parses `frames.csv` text; `path` is only used in error messages.
+///
+/// # Errors
+/// [`EvalError::Parse`] naming the file and 1-based line: a missing or different header, a
+/// wrong column count, a bad number or status, or a frame index that repeats.
+pub fn parse_frames_csv(text: &str, path: &Path) -> Result<Vec<FrameRecord>, EvalError> {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    match lines.next() {
+        Some((_, h)) if h.trim() == FRAMES_CSV_HEADER => {}
+        Some((i, h)) => {
+            return Err(EvalError::parse(
+                path,
+                i + 1,
+                format!("header {:?}; expected {FRAMES_CSV_HEADER:?}", h.trim()),
+            ));
+        }
+        None => {
+            return Err(EvalError::parse(
+                path,
+                1,
+                format!("empty file; expected the header {FRAMES_CSV_HEADER:?}"),
+            ));
+        }
+    }
+    let mut rows = Vec::new();
+    let mut seen = std::collections::HashMap::new();
+    for (i, line) in lines {
+        let row = parse_row(line.trim()).map_err(|m| EvalError::parse(path, i + 1, m))?;
+        if let Some(first) = seen.insert(row.frame, i + 1) {
+            return Err(EvalError::parse(
+                path,
+                i + 1,
+                format!(
+                    "frame {} already listed on line {first}; expected one row per frame",
+                    row.frame
+                ),
+            ));
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// Reads `frames.csv` (see the module docs for the format).
+///
+/// # Errors
+/// [`EvalError::Io`] if the file cannot be read; [`EvalError::Parse`] as
+/// [`parse_frames_csv`].
+pub fn read_frames_csv(path: &Path) -> Result<Vec<FrameRecord>, EvalError> {
+    let text = std::fs::read_to_string(path).map_err(|e| EvalError::io(path, e))?;
+    parse_frames_csv(&text, path)
+}
+
+fn fmt_opt_f64(v: Option<f64>) -> String {
+    v.map(|x| format!("{x}")).unwrap_or_default()
+}
+
+/// Formats rows as `frames.csv` text (header first; numbers in Rust's shortest round-trip
+/// form, so reading gives back the same values).
+///
+/// # Errors
+/// A message naming the first row (0-based) whose `reason` holds a comma, quote or line
+/// break, or whose numbers are not finite.
+pub fn format_frames_csv(rows: &[FrameRecord]) -> Result<String, String> {
+    let mut s = String::with_capacity(64 + rows.len() * 48);
+    s.push_str(FRAMES_CSV_HEADER);
+    s.push('\n');
+    for (i, r) in rows.iter().enumerate() {
+        if r.reason.contains([',', '"', '\n', '\r']) {
+            return Err(format!(
+                "row {i} (frame {}): reason {:?} holds a comma, quote or line break; expected a keyword",
+                r.frame, r.reason
+            ));
+        }
+        let finite = [r.zone_score, r.reprojection_rms_px, Some(r.time_ms)]
+            .iter()
+            .all(|v| v.is_none_or(f64::is_finite));
+        if !finite {
+            return Err(format!(
+                "row {i} (frame {}): a number is not finite",
+                r.frame
+            ));
+        }
+        let zone = r.zone.map(|z| z.to_string()).unwrap_or_else(|| "-1".into());
+        let inliers = r.inliers.map(|n| n.to_string()).unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{}",
+            r.frame,
+            zone,
+            fmt_opt_f64(r.zone_score),
+            r.status.as_str(),
+            r.reason,
+            inliers,
+            fmt_opt_f64(r.reprojection_rms_px),
+            r.time_ms
+        );
+    }
+    Ok(s)
+}
+
+/// Writes `frames.csv` atomically (temporary file in the same folder, then rename).
+///
+/// # Errors
+/// [`EvalError::Invalid`] for a row [`format_frames_csv`] refuses (nothing is written);
+/// [`EvalError::Io`] if writing fails.
+pub fn write_frames_csv(path: &Path, rows: &[FrameRecord]) -> Result<(), EvalError> {
+    let text = format_frames_csv(rows)
+        .map_err(|m| EvalError::Invalid(format!("{}: {m}", path.display())))?;
+    write_atomic(path, text.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rows() -> Vec<FrameRecord> {
+        vec![
+            FrameRecord {
+                frame: 0,
+                zone: Some(12),
+                zone_score: Some(0.873_1),
+                status: Status::Refined,
+                reason: String::new(),
+                inliers: Some(143),
+                reprojection_rms_px: Some(0.1 + 0.2),
+                time_ms: 41.25,
+            },
+            FrameRecord {
+                frame: 1,
+                zone: None,
+                zone_score: None,
+                status: Status::Rejected,
+                reason: "jump_too_large".into(),
+                inliers: None,
+                reprojection_rms_px: None,
+                time_ms: 3.0,
+            },
+        ]
+    }
+
+    #[test]
+    fn round_trip_is_exact() {
+        let text = format_frames_csv(&rows()).unwrap();
+        assert!(text.starts_with(FRAMES_CSV_HEADER));
+        assert!(
+            text.contains("\n1,-1,,rejected,jump_too_large,,,3\n"),
+            "{text}"
+        );
+        let back = parse_frames_csv(&text, Path::new("f.csv")).unwrap();
+        assert_eq!(back, rows());
+    }
+
+    #[test]
+    fn errors_name_file_and_line() {
+        let p = Path::new("run/frames.csv");
+        let text =
+            format!("{FRAMES_CSV_HEADER}\n0,1,0.5,refined,,10,0.5,3\n1,2,0.5,refined,10,0.5,3\n");
+        let e = parse_frames_csv(&text, p).unwrap_err().to_string();
+        assert!(
+            e.starts_with("run/frames.csv:3:") && e.contains("expected 8") && e.contains("found 7"),
+            "{e}"
+        );
+        let e = parse_frames_csv("frame,zone\n", p).unwrap_err().to_string();
+        assert!(
+            e.starts_with("run/frames.csv:1:") && e.contains("header"),
+            "{e}"
+        );
+        let text = format!("{FRAMES_CSV_HEADER}\n0,1,0.5,lost,,10,0.5,3\n");
+        let e = parse_frames_csv(&text, p).unwrap_err().to_string();
+        assert!(e.contains(":2:") && e.contains("\"lost\""), "{e}");
+        let text = format!("{FRAMES_CSV_HEADER}\n0,1,,refined,,,,3\n0,1,,refined,,,,3\n");
+        let e = parse_frames_csv(&text, p).unwrap_err().to_string();
+        assert!(e.contains(":3:") && e.contains("line 2"), "{e}");
+    }
+
+    #[test]
+    fn writer_refuses_commas_in_reason() {
+        let mut r = rows();
+        r[1].reason = "degenerate, collinear".into();
+        assert!(format_frames_csv(&r).unwrap_err().contains("row 1"));
+    }
+}
