@@ -219,3 +219,42 @@ fn sequence_writer_is_sync() {
     assert_sync::<endoloc_data::SequenceWriter>();
     assert_sync::<DatasetWriter>();
 }
+
+#[test]
+fn abandoned_writer_leaves_nothing_behind() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    {
+        let w = DatasetWriter::create(&dir, &meta(), false).unwrap();
+        let seq = w.sequence("train").unwrap();
+        seq.write_rgb(0, W, H, &rgb(0)).unwrap();
+        // Dropped without finish (an error or a panic on the way).
+    }
+    assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn bad_dataset_toml_names_the_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    write_dataset(&dir, false, 1).unwrap();
+    let toml_path = dir.join("dataset.toml");
+    let text = std::fs::read_to_string(&toml_path).unwrap();
+    let model_line = text.lines().position(|l| l.starts_with("model")).unwrap() + 1;
+    std::fs::write(&toml_path, text.replace("\"pinhole\"", "\"omni\"")).unwrap();
+    match Dataset::open(&dir).unwrap_err() {
+        DataError::Parse { line, message, .. } => {
+            // The error points into the [camera] table.
+            assert!(line > 0 && line <= model_line + 1, "line {line}: {message}");
+            assert!(message.contains("expected \"pinhole\""), "{message}");
+        }
+        other => panic!("{other:?}"),
+    }
+    std::fs::write(
+        &toml_path,
+        text.replace("format_version = 1", "format_version = 2"),
+    )
+    .unwrap();
+    let msg = Dataset::open(&dir).unwrap_err().to_string();
+    assert!(msg.contains("format_version = 2; expected 1"), "{msg}");
+}
