@@ -1,0 +1,57 @@
+//! Choosing the compute device at run time.
+//!
+//! The pure-Rust `flex` CPU backend is always compiled in and is the default. A GPU backend
+//! is compiled in only with the crate feature `cuda` or `wgpu`; it is then chosen by name
+//! (`--device cuda`, or `BURN_DEVICE=cuda`). Tests never need one.
+
+use crate::NetError;
+use burn::tensor::Device;
+
+/// The flex CPU device (multi-threaded with rayon, SIMD).
+pub fn cpu() -> Device {
+    Device::flex()
+}
+
+/// Names of the devices this build can use, for help texts.
+pub fn available() -> Vec<&'static str> {
+    #[allow(unused_mut)]
+    let mut v = vec!["cpu"];
+    #[cfg(feature = "cuda")]
+    v.push("cuda");
+    #[cfg(feature = "wgpu")]
+    v.push("wgpu");
+    v
+}
+
+/// The device named `name`: `cpu` (or `flex`), `cuda`, `wgpu`, or `auto` (the `BURN_DEVICE`
+/// environment variable when set, else the CPU).
+///
+/// # Errors
+/// [`NetError::Device`] for an unknown name or a GPU backend not compiled into this build.
+pub fn from_name(name: &str) -> Result<Device, NetError> {
+    let lower = name.trim().to_ascii_lowercase();
+    let lower = if lower == "auto" {
+        match std::env::var("BURN_DEVICE") {
+            Ok(v) if !v.trim().is_empty() => v.trim().to_ascii_lowercase(),
+            _ => "cpu".to_string(),
+        }
+    } else {
+        lower
+    };
+    #[allow(unreachable_patterns)]
+    match lower.as_str() {
+        "cpu" | "flex" => Ok(cpu()),
+        #[cfg(feature = "cuda")]
+        "cuda" => Ok(Device::cuda(burn::tensor::DeviceIndex::Default)),
+        #[cfg(feature = "wgpu")]
+        "wgpu" => Ok(Device::wgpu(burn::tensor::DeviceKind::default())),
+        "cuda" | "wgpu" => Err(NetError::Device(format!(
+            "{lower} is not compiled into this build (rebuild with `--features {lower}`); available: {}",
+            available().join(", ")
+        ))),
+        other => Err(NetError::Device(format!(
+            "unknown device {other:?}; available: {}",
+            available().join(", ")
+        ))),
+    }
+}

@@ -1,0 +1,28 @@
+//! Zone classification for endoloc: the first half of the paper's pipeline.
+//!
+//! A training sequence is cut into zones ([`zones`]); a Siamese network — two twins sharing
+//! one backbone ([`backbone`]) — is trained with the contrastive loss ([`loss`]) on balanced
+//! pairs of images from the same zone and from different zones ([`pairs`], [`train`]); the
+//! descriptors of all training images form a database ([`database`]); a test image goes to
+//! the zone of its nearest descriptors ([`classifier`]), optionally smoothed over a video by
+//! an HMM over zones ([`temporal`]).
+//!
+//! The network runs on burn 0.22 with its pure-Rust `flex` CPU backend; a GPU backend is an
+//! optional crate feature (`cuda`, `wgpu`) chosen at run time ([`device`]).
+//!
+//! A trained model is one folder ([`model`]): `model.toml` (its config), `weights.safetensors`,
+//! `zones.csv`, `database.bin` (descriptors of the training frames) and `train_poses.txt`.
+//!
+//! Conventions (`DESIGN.md`): zone indices are 0-based along the training trajectory; poses
+//! are `T_wc` in mm.
+
+pub mod augment;
+pub mod device;
+pub mod error;
+pub mod preprocess;
+pub mod zones;
+
+pub use augment::AugmentConfig;
+pub use error::NetError;
+pub use preprocess::InputSize;
+pub use zones::{UniformBy, Zone, ZoneConfig, ZoneTable};
