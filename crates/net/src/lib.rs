@@ -17,12 +17,15 @@
 //! are `T_wc` in mm.
 
 pub mod augment;
+pub mod backbone;
 pub mod device;
 pub mod error;
+pub mod loss;
 pub mod preprocess;
 pub mod zones;
 
 pub use augment::AugmentConfig;
+pub use backbone::{BackboneConfig, EmbeddingNet};
 pub use error::NetError;
 pub use preprocess::InputSize;
 pub use zones::{UniformBy, Zone, ZoneConfig, ZoneTable};
