@@ -110,7 +110,7 @@ pub fn umeyama(
     }
     let r = u * w * v_t;
     let scale = if with_scale {
-        if !(sigma_x > 0.0) {
+        if sigma_x.is_nan() || sigma_x <= 0.0 {
             return Err(EvalError::Alignment(
                 "the estimated positions have zero spread; scale undefined".into(),
             ));

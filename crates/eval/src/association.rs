@@ -128,8 +128,9 @@ pub fn associate(
     est_stamps_s: &[f64],
     config: &AssociationConfig,
 ) -> Result<Association, EvalError> {
-    if !(config.max_diff_s >= 0.0) || !config.max_diff_s.is_finite() || !config.offset_s.is_finite()
-    {
+    let valid =
+        config.max_diff_s.is_finite() && config.max_diff_s >= 0.0 && config.offset_s.is_finite();
+    if !valid {
         return Err(EvalError::Invalid(format!(
             "association: max. time difference must be finite and ≥ 0 and the offset finite; got {} s and {} s",
             config.max_diff_s, config.offset_s

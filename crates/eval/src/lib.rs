@@ -18,9 +18,13 @@ pub mod ape;
 pub mod association;
 pub mod error;
 pub mod frames_csv;
+pub mod metrics;
 pub mod output;
+pub mod plots;
+pub mod report;
 pub mod rpe;
 pub mod stats;
+pub mod write;
 pub mod zones_csv;
 
 pub use align::{AlignmentKind, Similarity3, align_trajectory, umeyama};
@@ -31,7 +35,13 @@ pub use frames_csv::{
     FRAMES_CSV_HEADER, FrameRecord, format_frames_csv, parse_frames_csv, read_frames_csv,
     write_frames_csv,
 };
+pub use metrics::{
+    EvalConfig, EvalInputs, Evaluation, FrameEvaluation, METRICS_FORMAT, Metrics, evaluate,
+};
 pub use output::{OutputDir, write_atomic};
+pub use plots::{PlotConfig, text_available};
+pub use report::{Sources, render_report};
 pub use rpe::{RpeConfig, RpeErrors, rpe_errors};
 pub use stats::Statistics;
+pub use write::{WriteOptions, Written, write_results};
 pub use zones_csv::{ZONES_CSV_HEADER, ZoneLabel, read_zones_csv};
