@@ -28,6 +28,7 @@ enum Command {
     Simulate(cmd::simulate::Args),
     Features(cmd::features::Args),
     Dataset(cmd::dataset::Args),
+    Eval(cmd::eval::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -37,6 +38,7 @@ fn main() -> std::process::ExitCode {
         Command::Simulate(args) => cmd::simulate::run(args),
         Command::Features(args) => cmd::features::run(args),
         Command::Dataset(args) => cmd::dataset::run(args),
+        Command::Eval(args) => cmd::eval::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
 pub mod dataset;
+pub mod eval;
 pub mod features;
 pub mod simulate;
