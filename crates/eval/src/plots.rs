@@ -17,6 +17,7 @@ use std::sync::OnceLock;
 
 use endoloc_geometry::Status;
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use crate::EvalError;
@@ -100,6 +101,20 @@ fn render_png(
     write_atomic(path, &png)
 }
 
+type Chart<'a, 'b> =
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Without text the mesh has no labels (and so no grid): draw the plot area's border.
+fn border(chart: &mut Chart<'_, '_>, x: (f64, f64), y: (f64, f64)) -> Result<(), String> {
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(x.0, y.0), (x.1, y.1)],
+            BLACK.stroke_width(1),
+        )))
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}
+
 fn padded(lo: f64, hi: f64) -> (f64, f64) {
     let span = (hi - lo).abs().max(1e-6);
     (lo - 0.05 * span, hi + 0.05 * span)
@@ -154,6 +169,7 @@ pub fn plot_trajectory_xy(
                 ("sans-serif", 22),
             );
         }
+        let (xb, yb) = ((xr.start, xr.end), (yr.start, yr.end));
         let mut chart = b.build_cartesian_2d(xr, yr).map_err(|e| e.to_string())?;
         let mut mesh = chart.configure_mesh();
         mesh.light_line_style(RGBColor(235, 235, 235));
@@ -165,6 +181,9 @@ pub fn plot_trajectory_xy(
             mesh.x_labels(0).y_labels(0);
         }
         mesh.draw().map_err(|e| e.to_string())?;
+        if !text {
+            border(&mut chart, xb, yb)?;
+        }
         // Error segments estimate → ground truth.
         chart
             .draw_series(frames.iter().filter_map(|f| {
@@ -191,6 +210,22 @@ pub fn plot_trajectory_xy(
             gt_line.label("ground truth").legend(|(x, y)| {
                 PathElement::new(vec![(x, y), (x + 20, y)], GT_COLOR.stroke_width(2))
             });
+        }
+        // Frames without an estimate: a cross on the ground truth.
+        if frames.iter().any(|f| f.est.is_none()) {
+            let lost = chart
+                .draw_series(frames.iter().filter(|f| f.est.is_none()).map(|f| {
+                    Cross::new(
+                        (f.gt.translation.x, f.gt.translation.y),
+                        4,
+                        REJECTED.stroke_width(2),
+                    )
+                }))
+                .map_err(|e| e.to_string())?;
+            if text {
+                lost.label("not localized (at ground truth)")
+                    .legend(|(x, y)| Cross::new((x + 10, y), 4, REJECTED.stroke_width(2)));
+            }
         }
         for (status, name) in [
             (Some(Status::Refined), "refined"),
@@ -268,6 +303,9 @@ fn error_panel(
         mesh.x_labels(0).y_labels(0);
     }
     mesh.draw().map_err(|e| e.to_string())?;
+    if !text {
+        border(&mut chart, (0.0, (n_frames.max(2) - 1) as f64), (0.0, ymax))?;
+    }
     for w in values.windows(2) {
         if w[1].0 == w[0].0 + 1 {
             chart
@@ -360,6 +398,9 @@ fn cdf_panel(
         mesh.x_labels(0).y_labels(0);
     }
     mesh.draw().map_err(|e| e.to_string())?;
+    if !text {
+        border(&mut chart, (0.0, xmax), (0.0, 1.0))?;
+    }
     // Fraction of *all* test frames with an error ≤ x: frames never localized keep the
     // curve below 1 (its plateau is the localized fraction).
     let denom = frames.max(1) as f64;

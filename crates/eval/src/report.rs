@@ -108,9 +108,8 @@ pub fn render_report(metrics: &Metrics, sources: &Sources, plots: &[PlotRef]) ->
     if let Some(r) = &m.rpe {
         let _ = writeln!(
             s,
-            "## Relative pose error\n\nOver {} associated pose{} ({} pairs; evo_rpe `--delta {} --delta_unit f`{}).\n",
+            "## Relative pose error\n\nPairs of associated poses {} apart ({} pairs; evo_rpe `--delta {} --delta_unit f`{}); where frames are missing, a pair spans the gap.\n",
             r.delta_frames,
-            if r.delta_frames == 1 { "" } else { "s" },
             if r.all_pairs { "all" } else { "consecutive" },
             r.delta_frames,
             if r.all_pairs { " --all_pairs" } else { "" }
@@ -148,7 +147,11 @@ pub fn render_report(metrics: &Metrics, sources: &Sources, plots: &[PlotRef]) ->
         let _ = writeln!(s, "## Per zone\n\nFrames grouped by {key}.\n");
         let with_acc = m.per_zone.iter().any(|z| z.zone_accuracy.is_some());
         s.push_str("| zone | frames | localized | position mean (mm) | position median (mm) | orientation mean (°) | orientation median (°) |");
-        s.push_str(if with_acc { " zone accuracy |\n" } else { "\n" });
+        s.push_str(if with_acc {
+            " zone accuracy (%) |\n"
+        } else {
+            "\n"
+        });
         s.push_str("|---:|---:|---:|---:|---:|---:|---:|");
         s.push_str(if with_acc { "---:|\n" } else { "\n" });
         for z in &m.per_zone {

@@ -30,7 +30,7 @@ pub const ERRORS_CSV_HEADER: &str =
 const PLOTS: [(&str, &str); 3] = [
     (
         "trajectory_xy.png",
-        "Ground truth (line) and estimates (dots, coloured by status) in the world X-Y plane; grey segments join each estimate to its ground truth.",
+        "Ground truth (line) and estimates (dots, coloured by status) in the world X-Y plane (x: patient's left, y: cranial); grey segments join each estimate to its ground truth; red crosses mark frames without an estimate.",
     ),
     (
         "errors_along.png",
