@@ -18,14 +18,29 @@
 
 pub mod augment;
 pub mod backbone;
+pub mod classifier;
+pub mod database;
 pub mod device;
 pub mod error;
 pub mod loss;
+pub mod model;
+pub mod pairs;
+pub mod plot;
 pub mod preprocess;
+pub mod temporal;
+pub mod train;
 pub mod zones;
 
 pub use augment::AugmentConfig;
 pub use backbone::{BackboneConfig, EmbeddingNet};
+pub use classifier::ZoneClassifier;
+pub use database::{DescriptorDatabase, ScoreRule, ZonePrediction};
 pub use error::NetError;
+pub use model::ModelConfig;
 pub use preprocess::InputSize;
+pub use temporal::{TemporalConfig, TemporalFilter, viterbi};
+pub use train::{
+    EpochRecord, ImageCache, Phase, Schedule, TrainConfig, TrainProgress, TrainReport, TrainTarget,
+    ValidationConfig, fit, train,
+};
 pub use zones::{UniformBy, Zone, ZoneConfig, ZoneTable};

@@ -1,0 +1,308 @@
+//! The descriptor database: one descriptor per training frame, with its zone, and the zone
+//! look-up rule.
+//!
+//! **Rule.** The distance from a test descriptor `q` to zone `z` is the Euclidean distance to
+//! the nearest descriptor of that zone ([`ScoreRule::Nearest`], the default) or the mean of
+//! the `k` nearest ([`ScoreRule::MeanOfNearest`]). The predicted zone has the smallest
+//! distance. This is the paper's rule: it assigns the zone "with the smallest contrastive
+//! loss", and for a similar pair that loss is `½ d²`, increasing in `d`. **Zone scores are
+//! distances: lower is better**, in descriptor units (unit-length descriptors: `0 ≤ d ≤ 2`).
+//!
+//! File format (`database.bin`, little-endian): the 8 bytes `EDLCDB01`, `u32` frame count
+//! `n`, `u32` descriptor length `dim`, `n × u32` zone indices, `n × dim × f32` descriptors.
+
+use crate::NetError;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// File name of the database in a model folder.
+pub const DATABASE_FILE: &str = "database.bin";
+
+const MAGIC: &[u8; 8] = b"EDLCDB01";
+
+/// How a zone's score is computed from the distances to its descriptors.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "rule", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ScoreRule {
+    /// Distance to the nearest descriptor of the zone (1-nearest neighbour).
+    Nearest,
+    /// Mean distance to the `k` nearest descriptors of the zone (fewer if the zone is
+    /// smaller).
+    MeanOfNearest {
+        /// How many nearest descriptors to average.
+        k: usize,
+    },
+}
+
+impl Default for ScoreRule {
+    fn default() -> Self {
+        ScoreRule::Nearest
+    }
+}
+
+/// The zone a descriptor belongs to, with the evidence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ZonePrediction {
+    /// Predicted zone (0-based along the training trajectory).
+    pub zone: usize,
+    /// Score of every zone: distance in descriptor space (lower = better), see
+    /// [`ScoreRule`].
+    pub zone_scores: Vec<f32>,
+    /// Training frame with the nearest descriptor.
+    pub nearest_frame: usize,
+    /// Distance to that descriptor.
+    pub distance: f32,
+}
+
+/// Descriptors of the training frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DescriptorDatabase {
+    /// Descriptor length.
+    pub dim: usize,
+    /// Number of zones.
+    pub zones: usize,
+    /// `frames × dim` descriptors, row-major, one row per training frame.
+    pub descriptors: Vec<f32>,
+    /// Zone of each row.
+    pub zone_of_row: Vec<usize>,
+    /// Training frame of each row.
+    pub frame_of_row: Vec<usize>,
+}
+
+impl DescriptorDatabase {
+    /// A database from descriptors (`frames × dim`, row `i` = training frame `i`) and the zone
+    /// of each frame.
+    ///
+    /// # Errors
+    /// [`NetError::Config`] when the sizes disagree.
+    pub fn new(
+        dim: usize,
+        zones: usize,
+        descriptors: Vec<f32>,
+        zone_of_frame: Vec<usize>,
+    ) -> Result<Self, NetError> {
+        let frames: Vec<usize> = (0..zone_of_frame.len()).collect();
+        Self::from_rows(dim, zones, descriptors, zone_of_frame, frames)
+    }
+
+    /// A database of selected rows (`frame_of_row[i]` = training frame of row `i`).
+    ///
+    /// # Errors
+    /// [`NetError::Config`] when the sizes disagree or a zone index is out of range.
+    pub fn from_rows(
+        dim: usize,
+        zones: usize,
+        descriptors: Vec<f32>,
+        zone_of_row: Vec<usize>,
+        frame_of_row: Vec<usize>,
+    ) -> Result<Self, NetError> {
+        if dim == 0
+            || descriptors.len() != dim * zone_of_row.len()
+            || frame_of_row.len() != zone_of_row.len()
+            || zone_of_row.iter().any(|&z| z >= zones)
+        {
+            return Err(NetError::Config(format!(
+                "descriptor database: {} values for {} rows of {dim} (zones < {zones})",
+                descriptors.len(),
+                zone_of_row.len()
+            )));
+        }
+        Ok(DescriptorDatabase {
+            dim,
+            zones,
+            descriptors,
+            zone_of_row,
+            frame_of_row,
+        })
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.zone_of_row.len()
+    }
+
+    /// Whether the database is empty.
+    pub fn is_empty(&self) -> bool {
+        self.zone_of_row.is_empty()
+    }
+
+    /// Descriptor of row `i`.
+    pub fn row(&self, i: usize) -> Option<&[f32]> {
+        self.descriptors.get(i * self.dim..(i + 1) * self.dim)
+    }
+
+    /// The zone of descriptor `q` by `rule` (see the module documentation).
+    ///
+    /// # Errors
+    /// [`NetError::Config`] when `q` has the wrong length or the database is empty.
+    pub fn lookup(&self, q: &[f32], rule: ScoreRule) -> Result<ZonePrediction, NetError> {
+        if q.len() != self.dim {
+            return Err(NetError::Config(format!(
+                "descriptor of length {}; the database holds length {}",
+                q.len(),
+                self.dim
+            )));
+        }
+        if self.is_empty() {
+            return Err(NetError::Config("the descriptor database is empty".into()));
+        }
+        let dist: Vec<f32> = self
+            .descriptors
+            .chunks_exact(self.dim)
+            .map(|r| {
+                r.iter()
+                    .zip(q)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum::<f32>()
+                    .sqrt()
+            })
+            .collect();
+        let (best_row, &best) = dist
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap_or((0, &f32::INFINITY));
+        let mut zone_scores = vec![f32::INFINITY; self.zones];
+        match rule {
+            ScoreRule::Nearest => {
+                for (d, &z) in dist.iter().zip(&self.zone_of_row) {
+                    if *d < zone_scores[z] {
+                        zone_scores[z] = *d;
+                    }
+                }
+            }
+            ScoreRule::MeanOfNearest { k } => {
+                let k = k.max(1);
+                let mut per: Vec<Vec<f32>> = vec![Vec::new(); self.zones];
+                for (d, &z) in dist.iter().zip(&self.zone_of_row) {
+                    per[z].push(*d);
+                }
+                for (z, v) in per.iter_mut().enumerate() {
+                    if v.is_empty() {
+                        continue;
+                    }
+                    let kk = k.min(v.len());
+                    v.select_nth_unstable_by(kk - 1, f32::total_cmp);
+                    zone_scores[z] = v[..kk].iter().sum::<f32>() / kk as f32;
+                }
+            }
+        }
+        let zone = zone_scores
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map_or(0, |(z, _)| z);
+        Ok(ZonePrediction {
+            zone,
+            zone_scores,
+            nearest_frame: self.frame_of_row[best_row],
+            distance: best,
+        })
+    }
+
+    /// Writes `database.bin` (see the module documentation for the layout).
+    ///
+    /// # Errors
+    /// [`NetError::Io`] when the file cannot be written.
+    pub fn save(&self, path: &Path) -> Result<(), NetError> {
+        let mut out = Vec::with_capacity(16 + self.len() * (4 + 4 * self.dim));
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&(self.len() as u32).to_le_bytes());
+        out.extend_from_slice(&(self.dim as u32).to_le_bytes());
+        for &z in &self.zone_of_row {
+            out.extend_from_slice(&(z as u32).to_le_bytes());
+        }
+        for &v in &self.descriptors {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        std::fs::write(path, out).map_err(|e| NetError::io(path, e))
+    }
+
+    /// Reads `database.bin` for a model of `zones` zones; rows are training frames `0..n`.
+    ///
+    /// # Errors
+    /// [`NetError::Io`] if unreadable; [`NetError::Parse`] for a bad header, a truncated
+    /// file or a zone index `≥ zones`.
+    pub fn load(path: &Path, zones: usize) -> Result<Self, NetError> {
+        let bytes = std::fs::read(path).map_err(|e| NetError::io(path, e))?;
+        let bad = |m: String| NetError::parse(path, 0, m);
+        if bytes.len() < 16 || &bytes[..8] != MAGIC {
+            return Err(bad("not an endoloc descriptor database (bad header)".into()));
+        }
+        let u32_at = |o: usize| {
+            u32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]) as usize
+        };
+        let (n, dim) = (u32_at(8), u32_at(12));
+        let expected = 16 + n * 4 + n * dim * 4;
+        if bytes.len() != expected {
+            return Err(bad(format!(
+                "{} bytes; expected {expected} for {n} descriptors of length {dim}",
+                bytes.len()
+            )));
+        }
+        let zone_of_row: Vec<usize> = (0..n).map(|i| u32_at(16 + 4 * i)).collect();
+        if let Some((i, z)) = zone_of_row.iter().enumerate().find(|(_, z)| **z >= zones) {
+            return Err(bad(format!(
+                "row {i} has zone {z}; the model has {zones} zones"
+            )));
+        }
+        let off = 16 + 4 * n;
+        let descriptors: Vec<f32> = bytes[off..]
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        DescriptorDatabase::new(dim, zones, descriptors, zone_of_row)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn db() -> DescriptorDatabase {
+        // Zone 0: (0,0), (1,0); zone 1: (0,1), (0,3).
+        DescriptorDatabase::new(
+            2,
+            2,
+            vec![0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 3.0],
+            vec![0, 0, 1, 1],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn nearest_and_mean_of_k_rules_on_hand_computed_cases() {
+        let d = db();
+        // q = (0, 0.6): nearest of zone 0 is (0,0) at 0.6, of zone 1 is (0,1) at 0.4.
+        let p = d.lookup(&[0.0, 0.6], ScoreRule::Nearest).unwrap();
+        assert_eq!(p.zone, 1);
+        assert_eq!(p.nearest_frame, 2);
+        assert!((p.zone_scores[0] - 0.6).abs() < 1e-6 && (p.zone_scores[1] - 0.4).abs() < 1e-6);
+        assert!((p.distance - 0.4).abs() < 1e-6);
+        // Mean of 2: zone 0 = (0.6 + sqrt(1.36)) / 2 ≈ 0.883, zone 1 = (0.4 + 2.4) / 2 = 1.4.
+        let p = d
+            .lookup(&[0.0, 0.6], ScoreRule::MeanOfNearest { k: 2 })
+            .unwrap();
+        assert_eq!(p.zone, 0);
+        assert!((p.zone_scores[1] - 1.4).abs() < 1e-6);
+        assert!(d.lookup(&[0.0], ScoreRule::Nearest).is_err());
+    }
+
+    #[test]
+    fn save_load_round_trip_and_truncation_is_reported() {
+        let d = db();
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join(DATABASE_FILE);
+        d.save(&p).unwrap();
+        assert_eq!(DescriptorDatabase::load(&p, 2).unwrap(), d);
+        let err = DescriptorDatabase::load(&p, 1).unwrap_err().to_string();
+        assert!(err.contains("zone 1") && err.contains("1 zones"), "{err}");
+        let bytes = std::fs::read(&p).unwrap();
+        std::fs::write(&p, &bytes[..bytes.len() - 3]).unwrap();
+        let err = DescriptorDatabase::load(&p, 2).unwrap_err().to_string();
+        assert!(
+            err.contains("database.bin") && err.contains("expected"),
+            "{err}"
+        );
+    }
+}

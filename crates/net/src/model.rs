@@ -1,0 +1,233 @@
+//! The model folder: one directory holds everything a trained zone classifier needs.
+//!
+//! ```text
+//! MODEL/
+//!   model.toml            ModelConfig: format version, backbone, score rule, temporal
+//!                         defaults, training camera, dataset/sequence, zoning, train config
+//!   weights.safetensors   backbone weights (burn-store; safetensors, readable from Python)
+//!   zones.csv             the zone table (ZoneTable::save)
+//!   database.bin          descriptors of every training frame (DescriptorDatabase::save)
+//!   train_poses.txt       the training poses, TUM, T_wc, mm (zone median poses, truth zones)
+//!   history.csv           epoch, loss, validation accuracy
+//!   loss.png              the loss curve (skipped with a warning if no font is usable)
+//! ```
+//!
+//! A model is written to `MODEL.partial/` and renamed into place ([`publish`]).
+
+use crate::NetError;
+use crate::backbone::{BackboneConfig, EmbeddingNet};
+use crate::database::{DescriptorDatabase, ScoreRule};
+use crate::temporal::TemporalConfig;
+use crate::train::{EpochRecord, TrainConfig};
+use crate::zones::{ZONES_FILE, ZoneConfig, ZoneTable};
+use burn::tensor::Device;
+use burn_store::{ModuleSnapshot, SafetensorsStore};
+use endoloc_data::Sequence;
+use endoloc_geometry::Camera;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Version of the model folder layout.
+pub const FORMAT_VERSION: u32 = 1;
+/// Config file name.
+pub const CONFIG_FILE: &str = "model.toml";
+/// Weights file name.
+pub const WEIGHTS_FILE: &str = "weights.safetensors";
+/// Training poses file name.
+pub const POSES_FILE: &str = "train_poses.txt";
+/// Training history file name.
+pub const HISTORY_FILE: &str = "history.csv";
+/// Loss curve file name.
+pub const LOSS_PNG: &str = "loss.png";
+
+/// `model.toml`: what the model is and what it was trained on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelConfig {
+    /// Layout version ([`FORMAT_VERSION`]).
+    pub format_version: u32,
+    /// Name of the training dataset.
+    pub dataset: String,
+    /// Name of the training sequence.
+    pub sequence: String,
+    /// Number of training frames (rows of the database).
+    pub frames: usize,
+    /// Zone look-up rule.
+    pub score: ScoreRule,
+    /// The camera of the training images: test images must come from the same camera.
+    pub camera: Camera,
+    /// The backbone (input size, descriptor length).
+    pub backbone: BackboneConfig,
+    /// How the zones were made.
+    pub zones: ZoneConfig,
+    /// Default temporal-filter parameters.
+    pub temporal: TemporalConfig,
+    /// The training run.
+    pub train: TrainConfig,
+}
+
+impl ModelConfig {
+    /// Reads `MODEL/model.toml`.
+    ///
+    /// # Errors
+    /// [`NetError::Io`] if missing; [`NetError::Parse`] (with the line) for bad TOML or a
+    /// format version this build does not read.
+    pub fn load(dir: &Path) -> Result<Self, NetError> {
+        let path = dir.join(CONFIG_FILE);
+        let text = std::fs::read_to_string(&path).map_err(|e| NetError::io(&path, e))?;
+        let cfg: ModelConfig = toml::from_str(&text).map_err(|e| {
+            let line = e.span().map_or(0, |s| {
+                text[..s.start.min(text.len())].lines().count().max(1)
+            });
+            NetError::parse(&path, line, e.message().to_string())
+        })?;
+        if cfg.format_version != FORMAT_VERSION {
+            return Err(NetError::parse(
+                &path,
+                0,
+                format!(
+                    "model format version {}; this build reads version {FORMAT_VERSION}",
+                    cfg.format_version
+                ),
+            ));
+        }
+        Ok(cfg)
+    }
+
+    /// Writes `DIR/model.toml`.
+    ///
+    /// # Errors
+    /// [`NetError::Io`] / [`NetError::Config`].
+    pub fn save(&self, dir: &Path) -> Result<(), NetError> {
+        let path = dir.join(CONFIG_FILE);
+        let body = toml::to_string_pretty(self).map_err(|e| NetError::Config(e.to_string()))?;
+        let text = format!(
+            "# endoloc zone-classifier model (format {FORMAT_VERSION}); see crates/net/src/model.rs\n{body}"
+        );
+        std::fs::write(&path, text).map_err(|e| NetError::io(&path, e))
+    }
+}
+
+/// Saves backbone weights as safetensors.
+///
+/// # Errors
+/// [`NetError::Weights`].
+pub fn save_weights(net: &EmbeddingNet, path: &Path) -> Result<(), NetError> {
+    let mut store = SafetensorsStore::from_file(path);
+    net.save_into(&mut store)
+        .map_err(|e| NetError::weights(path, e))
+}
+
+/// Builds the backbone of `cfg` on `device` and loads its weights from `path`; every tensor
+/// must be present with the right shape.
+///
+/// # Errors
+/// [`NetError::Weights`] naming the file and what is missing or mismatched.
+pub fn load_weights(
+    cfg: &BackboneConfig,
+    path: &Path,
+    device: &Device,
+) -> Result<EmbeddingNet, NetError> {
+    if !path.is_file() {
+        return Err(NetError::weights(path, "file not found"));
+    }
+    let mut net = cfg.init(device);
+    let mut store = SafetensorsStore::from_file(path).allow_partial(false);
+    let result = net
+        .load_from(&mut store)
+        .map_err(|e| NetError::weights(path, e))?;
+    if !result.errors.is_empty() || !result.missing.is_empty() {
+        return Err(NetError::weights(
+            path,
+            format!(
+                "does not match the {} backbone of model.toml: missing {:?}, errors {:?}",
+                cfg.name(),
+                result.missing,
+                result.errors
+            ),
+        ));
+    }
+    Ok(net)
+}
+
+/// Writes every file of a model folder into `dir` (which must exist).
+///
+/// # Errors
+/// [`NetError::Io`], [`NetError::Weights`], [`NetError::Data`] (poses).
+pub fn write_model_files(
+    dir: &Path,
+    cfg: &ModelConfig,
+    net: &EmbeddingNet,
+    zones: &ZoneTable,
+    db: &DescriptorDatabase,
+    seq: &Sequence,
+    history: &[EpochRecord],
+) -> Result<(), NetError> {
+    save_weights(net, &dir.join(WEIGHTS_FILE))?;
+    zones.save(&dir.join(ZONES_FILE))?;
+    db.save(&dir.join(crate::database::DATABASE_FILE))?;
+    endoloc_data::write_tum(&dir.join(POSES_FILE), &seq.poses)?;
+    write_history(&dir.join(HISTORY_FILE), history)?;
+    if let Err(e) = crate::plot::loss_curve(&dir.join(LOSS_PNG), history) {
+        tracing::warn!("loss curve not drawn: {e}");
+    }
+    cfg.save(dir)
+}
+
+/// Writes `history.csv`: `epoch,loss,val_accuracy,val_within1,elapsed_s`.
+///
+/// # Errors
+/// [`NetError::Io`].
+pub fn write_history(path: &Path, history: &[EpochRecord]) -> Result<(), NetError> {
+    let mut s = String::from("epoch,loss,val_accuracy,val_within1,elapsed_s\n");
+    let opt = |v: Option<f32>| v.map_or(String::new(), |v| format!("{v:.4}"));
+    for r in history {
+        let _ = writeln!(
+            s,
+            "{},{:.6},{},{},{:.1}",
+            r.epoch,
+            r.loss,
+            opt(r.val_accuracy),
+            opt(r.val_within1),
+            r.elapsed_s
+        );
+    }
+    std::fs::write(path, s).map_err(|e| NetError::io(path, e))
+}
+
+/// Moves the finished staging folder to `dest`. With `force`, an existing `dest` is first
+/// renamed aside and removed only after the new model is in place.
+///
+/// # Errors
+/// [`NetError::AlreadyExists`] without `force`; [`NetError::Io`].
+pub fn publish(staging: &Path, dest: &Path, force: bool) -> Result<(), NetError> {
+    if dest.exists() {
+        if !force {
+            return Err(NetError::AlreadyExists {
+                path: dest.to_path_buf(),
+            });
+        }
+        let old = dest.with_file_name(format!(
+            "{}.old-{}",
+            dest.file_name()
+                .map_or("model".into(), |n| n.to_string_lossy()),
+            std::process::id()
+        ));
+        std::fs::rename(dest, &old).map_err(|e| NetError::io(dest, e))?;
+        std::fs::rename(staging, dest).map_err(|e| NetError::io(dest, e))?;
+        let _ = std::fs::remove_dir_all(&old);
+        return Ok(());
+    }
+    if let Some(parent) = dest.parent()
+        && !parent.as_os_str().is_empty()
+    {
+        std::fs::create_dir_all(parent).map_err(|e| NetError::io(parent, e))?;
+    }
+    std::fs::rename(staging, dest).map_err(|e| NetError::io(dest, e))
+}
+
+/// Path of a file in a model folder.
+pub fn file(dir: &Path, name: &str) -> PathBuf {
+    dir.join(name)
+}

@@ -1,0 +1,901 @@
+//! Training the Siamese network: twins sharing one backbone, the contrastive loss, balanced
+//! pairs, Adam; checkpoints and resume; validation zone accuracy; the model folder.
+//!
+//! The loop (written out here rather than burn's TUI learner) per step: draw a [`PairBatch`],
+//! augment and standardise its images, run them through the backbone as one batch (so the
+//! twins share weights by construction), pick the two rows of every pair, take the
+//! contrastive loss, back-propagate, Adam step. An *epoch* is `pairs_per_epoch` pairs.
+//!
+//! Schedules: [`Schedule::paper`] is the paper's (128 + 128 pairs per epoch, 500 epochs,
+//! Adam, lr 0.001, batch 128 pairs, every pair with its own two images);
+//! [`Schedule::fast`] is the CPU default (see its doc for the numbers).
+
+use crate::NetError;
+use crate::augment::{AugmentConfig, augment};
+use crate::backbone::{BackboneConfig, EmbeddingNet};
+use crate::database::{DescriptorDatabase, ScoreRule};
+use crate::loss::{DEFAULT_MARGIN, contrastive_loss};
+use crate::model::{self, ModelConfig};
+use crate::pairs::{PairBatch, PairSampler};
+use crate::preprocess::{InputSize, resize_area, standardize};
+use crate::temporal::TemporalConfig;
+use crate::zones::ZoneTable;
+use burn::module::Module;
+use burn::optim::{AdamConfig, GradientsParams};
+use burn::tensor::{Device, Int, Tensor, TensorData};
+use endoloc_data::Sequence;
+use endoloc_geometry::Camera;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Optimisation schedule.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Schedule {
+    /// Number of epochs.
+    pub epochs: usize,
+    /// Pairs per epoch (half positive, half negative).
+    pub pairs_per_epoch: usize,
+    /// Pairs per optimisation step.
+    pub batch_pairs: usize,
+    /// Adam learning rate at the start.
+    pub learning_rate: f64,
+    /// Learning rate at the end (cosine decay); equal to `learning_rate` for a constant rate.
+    pub final_learning_rate: f64,
+    /// Share images between pairs ([`crate::pairs`]): half the images per pair.
+    pub share_images: bool,
+}
+
+impl Default for Schedule {
+    fn default() -> Self {
+        Schedule::fast()
+    }
+}
+
+impl Schedule {
+    /// The paper's schedule: 500 epochs of 128 positive + 128 negative pairs, batch 128
+    /// pairs (2 steps per epoch), Adam with a constant learning rate of 0.001, independent
+    /// pairs (256 images per step).
+    pub fn paper() -> Self {
+        Schedule {
+            epochs: 500,
+            pairs_per_epoch: 256,
+            batch_pairs: 128,
+            learning_rate: 1e-3,
+            final_learning_rate: 1e-3,
+            share_images: false,
+        }
+    }
+
+    /// The CPU default: 150 epochs of 128 + 128 pairs, batch 64 pairs over 66 shared images
+    /// (4 steps per epoch, 600 steps, ~40 k images through the network), Adam 0.001 decaying
+    /// to 0.0001 (cosine).
+    pub fn fast() -> Self {
+        Schedule {
+            epochs: 150,
+            pairs_per_epoch: 256,
+            batch_pairs: 64,
+            learning_rate: 1e-3,
+            final_learning_rate: 1e-4,
+            share_images: true,
+        }
+    }
+
+    /// The preset named `fast` or `paper`.
+    ///
+    /// # Errors
+    /// [`NetError::Config`] for another name.
+    pub fn from_name(name: &str) -> Result<Self, NetError> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "fast" | "default" => Ok(Schedule::fast()),
+            "paper" => Ok(Schedule::paper()),
+            other => Err(NetError::Config(format!(
+                "unknown schedule {other:?}; expected fast or paper"
+            ))),
+        }
+    }
+
+    /// Optimisation steps per epoch.
+    pub fn steps_per_epoch(&self) -> usize {
+        self.pairs_per_epoch
+            .div_ceil(self.batch_pairs.max(1))
+            .max(1)
+    }
+
+    /// Learning rate at `step` of `total` (cosine from `learning_rate` to
+    /// `final_learning_rate`).
+    pub fn learning_rate_at(&self, step: usize, total: usize) -> f64 {
+        let t = if total <= 1 {
+            0.0
+        } else {
+            step as f64 / (total - 1) as f64
+        };
+        self.final_learning_rate
+            + 0.5
+                * (self.learning_rate - self.final_learning_rate)
+                * (1.0 + (std::f64::consts::PI * t.clamp(0.0, 1.0)).cos())
+    }
+}
+
+/// Validation during training: held-out training frames classified against the others.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ValidationConfig {
+    /// Hold out every `holdout_every`-th training frame from the pairs (0: none, and no
+    /// validation). The final database still holds every frame.
+    pub holdout_every: usize,
+    /// Validate every this many epochs (and after the last).
+    pub every_epochs: usize,
+    /// At most this many database frames (evenly spaced) during validation, for speed.
+    pub max_database_frames: usize,
+}
+
+impl Default for ValidationConfig {
+    fn default() -> Self {
+        ValidationConfig {
+            holdout_every: 10,
+            every_epochs: 25,
+            max_database_frames: 1200,
+        }
+    }
+}
+
+/// Everything that determines a training run (saved in `model.toml`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrainConfig {
+    /// Backbone.
+    pub backbone: BackboneConfig,
+    /// Optimisation schedule.
+    pub schedule: Schedule,
+    /// Contrastive-loss margin (unit descriptors: distances in `[0, 2]`).
+    pub margin: f32,
+    /// Fraction of negative pairs drawn from nearby zones.
+    pub hard_negative_fraction: f32,
+    /// "Nearby" for hard negatives: at most this many zones apart.
+    pub hard_negative_reach: usize,
+    /// Augmentation.
+    pub augment: AugmentConfig,
+    /// Seed of every random step (weights, pairs, augmentation).
+    pub seed: u64,
+    /// Validation.
+    pub validation: ValidationConfig,
+    /// Write a checkpoint every this many epochs (0: only at the end).
+    pub checkpoint_every_epochs: usize,
+    /// Zone look-up rule stored with the model.
+    pub score: ScoreRule,
+    /// Images per forward pass when computing descriptors.
+    pub inference_batch: usize,
+    /// Compute device: `cpu`, `cuda`, `wgpu` or `auto` ([`crate::device::from_name`]).
+    pub device: String,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        TrainConfig {
+            backbone: BackboneConfig::default(),
+            schedule: Schedule::fast(),
+            margin: DEFAULT_MARGIN,
+            hard_negative_fraction: 0.5,
+            hard_negative_reach: 2,
+            augment: AugmentConfig::default(),
+            seed: 0,
+            validation: ValidationConfig::default(),
+            checkpoint_every_epochs: 10,
+            score: ScoreRule::Nearest,
+            inference_batch: 64,
+            device: "cpu".into(),
+        }
+    }
+}
+
+impl TrainConfig {
+    /// Checks the values.
+    ///
+    /// # Errors
+    /// [`NetError::Config`] naming the first bad value.
+    pub fn validate(&self) -> Result<(), NetError> {
+        self.backbone.validate()?;
+        let s = &self.schedule;
+        if s.epochs == 0 || s.pairs_per_epoch < 2 || s.batch_pairs < 2 {
+            return Err(NetError::Config(format!(
+                "schedule: epochs {} ≥ 1, pairs_per_epoch {} ≥ 2 and batch_pairs {} ≥ 2 expected",
+                s.epochs, s.pairs_per_epoch, s.batch_pairs
+            )));
+        }
+        if !(s.learning_rate > 0.0 && s.final_learning_rate > 0.0) {
+            return Err(NetError::Config("learning rates must be positive".into()));
+        }
+        if !(self.margin > 0.0) {
+            return Err(NetError::Config(format!(
+                "margin {} must be positive",
+                self.margin
+            )));
+        }
+        if self.inference_batch == 0 {
+            return Err(NetError::Config(
+                "inference_batch must be at least 1".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What the training loop is doing, for progress display.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// Decoding and resizing the training images.
+    LoadingImages,
+    /// Optimising.
+    Training,
+    /// Computing descriptors of all training frames.
+    Describing,
+    /// Writing the model folder.
+    Saving,
+}
+
+/// A progress report from [`train`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainProgress {
+    /// Current phase.
+    pub phase: Phase,
+    /// Units done in this phase (images, or steps when training).
+    pub done: usize,
+    /// Units in this phase.
+    pub total: usize,
+    /// Current epoch (1-based; 0 outside training).
+    pub epoch: usize,
+    /// Mean loss of the last finished epoch.
+    pub loss: Option<f32>,
+    /// Last validation zone accuracy (fraction).
+    pub val_accuracy: Option<f32>,
+}
+
+/// One epoch of the training history.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct EpochRecord {
+    /// 1-based epoch.
+    pub epoch: usize,
+    /// Mean contrastive loss over the epoch's steps.
+    pub loss: f32,
+    /// Validation exact zone accuracy (fraction), when validated this epoch.
+    pub val_accuracy: Option<f32>,
+    /// Validation accuracy within ±1 zone.
+    pub val_within1: Option<f32>,
+    /// Wall-clock seconds since the start of training (this run).
+    pub elapsed_s: f64,
+}
+
+/// The outcome of [`train`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainReport {
+    /// The model folder written.
+    pub model_dir: PathBuf,
+    /// Loss and validation per epoch (including epochs of a resumed run).
+    pub history: Vec<EpochRecord>,
+    /// Epoch the run resumed after (`None`: a fresh start).
+    pub resumed_after_epoch: Option<usize>,
+    /// Wall-clock seconds: loading images.
+    pub load_s: f64,
+    /// Wall-clock seconds: optimisation steps and validation (this run).
+    pub train_s: f64,
+    /// Wall-clock seconds: descriptors of all training frames.
+    pub describe_s: f64,
+    /// Steps taken in this run.
+    pub steps: usize,
+}
+
+/// Training images, resized once to the network input (values in `[0, 1]`, not standardised).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImageCache {
+    /// Size of every image.
+    pub size: InputSize,
+    /// `count × width × height` values, row-major images one after the other.
+    pub pixels: Vec<f32>,
+}
+
+impl ImageCache {
+    /// Decodes and resizes every image of `seq` (in parallel).
+    ///
+    /// # Errors
+    /// The first image that cannot be read ([`NetError::Data`]).
+    pub fn from_sequence(
+        seq: &Sequence,
+        size: InputSize,
+        progress: &mut dyn FnMut(usize),
+    ) -> Result<Self, NetError> {
+        let mut images = Vec::with_capacity(seq.len());
+        let frames: Vec<usize> = (0..seq.len()).collect();
+        for chunk in frames.chunks(64) {
+            let part: Result<Vec<Vec<f32>>, NetError> = chunk
+                .par_iter()
+                .map(|&i| {
+                    let g = seq.load_gray(i)?;
+                    Ok(resize_area(
+                        g.as_raw(),
+                        g.width() as usize,
+                        g.height() as usize,
+                        size,
+                    ))
+                })
+                .collect();
+            images.extend(part?);
+            progress(images.len());
+        }
+        Ok(ImageCache::from_images(size, images))
+    }
+
+    /// A cache of already resized images (each `width × height` values in `[0, 1]`).
+    pub fn from_images(size: InputSize, images: Vec<Vec<f32>>) -> Self {
+        let mut pixels = Vec::with_capacity(images.len() * size.pixels());
+        for im in images {
+            pixels.extend(im);
+        }
+        ImageCache { size, pixels }
+    }
+
+    /// Number of images.
+    pub fn len(&self) -> usize {
+        self.pixels.len() / self.size.pixels().max(1)
+    }
+
+    /// Whether there are no images.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Image `i`.
+    pub fn image(&self, i: usize) -> &[f32] {
+        let n = self.size.pixels();
+        &self.pixels[i * n..(i + 1) * n]
+    }
+}
+
+/// Descriptors (`frames.len() × dim`, row-major) of cached images through `net` (validation
+/// mode, no augmentation).
+pub fn describe_cached(
+    net: &EmbeddingNet,
+    device: &Device,
+    cache: &ImageCache,
+    frames: &[usize],
+    batch: usize,
+    progress: &mut dyn FnMut(usize),
+) -> Vec<f32> {
+    let size = cache.size;
+    let mut out = Vec::new();
+    for (k, chunk) in frames.chunks(batch.max(1)).enumerate() {
+        let buf: Vec<f32> = chunk
+            .par_iter()
+            .flat_map_iter(|&f| {
+                let mut v = cache.image(f).to_vec();
+                standardize(&mut v);
+                v
+            })
+            .collect();
+        out.extend(forward_values(net, device, buf, chunk.len(), size));
+        progress((k * batch.max(1) + chunk.len()).min(frames.len()));
+    }
+    out
+}
+
+/// Runs a batch of standardised images through `net` and reads the descriptors back.
+pub(crate) fn forward_values(
+    net: &EmbeddingNet,
+    device: &Device,
+    buf: Vec<f32>,
+    n: usize,
+    size: InputSize,
+) -> Vec<f32> {
+    let x = Tensor::<4>::from_data(
+        TensorData::new(buf, [n, 1, size.height as usize, size.width as usize]),
+        device,
+    );
+    net.forward(x)
+        .into_data()
+        .try_into_vec::<f32>()
+        .unwrap_or_default()
+}
+
+/// Saved training state between runs (`checkpoint/state.json`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct CheckpointState {
+    epoch: usize,
+    history: Vec<EpochRecord>,
+    config: TrainConfig,
+    frames: usize,
+    zones: usize,
+}
+
+const CKPT_NET: &str = "net.bpk";
+const CKPT_OPTIM: &str = "optim.bpk";
+const CKPT_STATE: &str = "state.json";
+
+/// The fitted network and its history (in-memory core of [`train`]).
+pub struct Fitted {
+    /// The trained backbone (autodiff device; call `.valid()` for inference).
+    pub net: EmbeddingNet,
+    /// Loss and validation per epoch.
+    pub history: Vec<EpochRecord>,
+    /// Epoch resumed after, if any.
+    pub resumed_after_epoch: Option<usize>,
+    /// Steps taken in this run.
+    pub steps: usize,
+    /// Wall-clock seconds of this run.
+    pub train_s: f64,
+}
+
+/// Fits the network on cached images: the training loop without any file output except
+/// optional checkpoints in `checkpoint_dir` (resumed from when `resume` and a checkpoint
+/// exists there).
+///
+/// # Errors
+/// [`NetError::Config`] for a bad config or a cache/zoning size mismatch; [`NetError::Zoning`]
+/// when no balanced pairs can be formed; [`NetError::Diverged`]; [`NetError::Weights`] /
+/// [`NetError::Io`] for checkpoint files.
+pub fn fit(
+    cfg: &TrainConfig,
+    cache: &ImageCache,
+    zones: &ZoneTable,
+    checkpoint_dir: Option<&Path>,
+    resume: bool,
+    progress: &mut dyn FnMut(&TrainProgress),
+) -> Result<Fitted, NetError> {
+    cfg.validate()?;
+    if cache.len() != zones.frame_count() {
+        return Err(NetError::Config(format!(
+            "{} cached images but the zone table covers {} frames",
+            cache.len(),
+            zones.frame_count()
+        )));
+    }
+    if cache.size != cfg.backbone.input() {
+        return Err(NetError::Config(format!(
+            "images cached at {} but the backbone takes {}",
+            cache.size,
+            cfg.backbone.input()
+        )));
+    }
+    let base = crate::device::from_name(&cfg.device)?;
+    let device = base.clone().autodiff();
+    let n = zones.frame_count();
+    let holdout = cfg.validation.holdout_every;
+    let is_held = |f: usize| holdout > 1 && f % holdout == holdout / 2;
+    let mut zone_frames: Vec<Vec<usize>> = vec![Vec::new(); zones.len()];
+    for f in 0..n {
+        if !is_held(f) {
+            zone_frames[zones.zone_of_frame[f]].push(f);
+        }
+    }
+    let sampler = PairSampler::new(
+        zone_frames,
+        cfg.hard_negative_fraction,
+        cfg.hard_negative_reach,
+    )?;
+    let val_queries: Vec<usize> = (0..n).filter(|&f| is_held(f)).collect();
+    let val_db: Vec<usize> = {
+        let pool: Vec<usize> = (0..n).filter(|&f| !is_held(f)).collect();
+        let m = cfg.validation.max_database_frames.max(1);
+        if pool.len() <= m {
+            pool
+        } else {
+            (0..m).map(|i| pool[i * pool.len() / m]).collect()
+        }
+    };
+
+    // Fresh start or resume.
+    let mut net = {
+        device.seed(cfg.seed);
+        cfg.backbone.init(&device)
+    };
+    let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
+    let mut history: Vec<EpochRecord> = Vec::new();
+    let mut start_epoch = 0;
+    let mut resumed = None;
+    if let Some(dir) = checkpoint_dir {
+        let state_path = dir.join(CKPT_STATE);
+        if resume && state_path.is_file() {
+            let text =
+                std::fs::read_to_string(&state_path).map_err(|e| NetError::io(&state_path, e))?;
+            let st: CheckpointState = serde_json::from_str(&text)
+                .map_err(|e| NetError::parse(&state_path, e.line(), e.to_string()))?;
+            if st.config.backbone != cfg.backbone || st.frames != n || st.zones != zones.len() {
+                return Err(NetError::Config(format!(
+                    "{}: the checkpoint was made with another backbone, frame count or zoning ({} frames, {} zones); start over with --force",
+                    dir.display(),
+                    st.frames,
+                    st.zones
+                )));
+            }
+            let p = dir.join(CKPT_NET);
+            net = net
+                .try_load_file(&p)
+                .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
+            let p = dir.join(CKPT_OPTIM);
+            optim = optim
+                .load(&p)
+                .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
+            start_epoch = st.epoch;
+            history = st.history;
+            resumed = Some(st.epoch);
+        }
+    }
+
+    let sched = &cfg.schedule;
+    let steps_per_epoch = sched.steps_per_epoch();
+    let total_steps = steps_per_epoch * sched.epochs;
+    let size = cache.size;
+    let (w, h) = (size.width as usize, size.height as usize);
+    let t0 = Instant::now();
+    let mut steps = 0;
+    let mut last_loss = history.last().map(|r| r.loss);
+    let mut last_val = history.iter().rev().find_map(|r| r.val_accuracy);
+    for epoch in start_epoch..sched.epochs {
+        // One RNG stream per epoch: a resumed run draws the same pairs as an uninterrupted one.
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x5EED_0000_0000);
+        rng.set_stream(epoch as u64 + 1);
+        let mut loss_sum = 0.0f64;
+        let mut remaining = sched.pairs_per_epoch;
+        let mut k = 0;
+        while remaining > 0 {
+            let pairs = remaining.min(sched.batch_pairs).max(2);
+            remaining = remaining.saturating_sub(pairs);
+            let batch: PairBatch = sampler.batch(pairs, sched.share_images, &mut rng);
+            // Per-image seeds drawn sequentially, augmentation in parallel.
+            let seeds: Vec<u64> = batch
+                .images
+                .iter()
+                .map(|_| rand::Rng::random(&mut rng))
+                .collect();
+            let buf: Vec<f32> = batch
+                .images
+                .par_iter()
+                .zip(seeds.par_iter())
+                .flat_map_iter(|(&f, &s)| {
+                    let mut r = ChaCha8Rng::seed_from_u64(s);
+                    let mut v = augment(cache.image(f), w, h, &cfg.augment, &mut r);
+                    standardize(&mut v);
+                    v
+                })
+                .collect();
+            let nb = batch.images.len();
+            let x = Tensor::<4>::from_data(TensorData::new(buf, [nb, 1, h, w]), &device);
+            let desc = net.forward(x);
+            let idx = |v: &[usize]| {
+                let d: Vec<i32> = v.iter().map(|&i| i as i32).collect();
+                Tensor::<1, Int>::from_ints(TensorData::new(d, [v.len()]), &device)
+            };
+            let da = desc.clone().select(0, idx(&batch.a));
+            let db = desc.select(0, idx(&batch.b));
+            let y = Tensor::<1>::from_data(
+                TensorData::new(batch.dissimilar.clone(), [batch.a.len()]),
+                &device,
+            );
+            let loss = contrastive_loss(da, db, y, cfg.margin);
+            let lv: f32 = loss
+                .clone()
+                .into_data()
+                .try_into_vec::<f32>()
+                .ok()
+                .and_then(|v| v.first().copied())
+                .unwrap_or(f32::NAN);
+            if !lv.is_finite() {
+                return Err(NetError::Diverged {
+                    epoch: epoch + 1,
+                    loss: lv,
+                });
+            }
+            let grads = GradientsParams::from_grads(loss.backward(), &net);
+            let lr = sched.learning_rate_at(epoch * steps_per_epoch + k, total_steps);
+            net = optim.step(lr, net, grads);
+            loss_sum += lv as f64;
+            k += 1;
+            steps += 1;
+            progress(&TrainProgress {
+                phase: Phase::Training,
+                done: epoch * steps_per_epoch + k,
+                total: total_steps,
+                epoch: epoch + 1,
+                loss: last_loss,
+                val_accuracy: last_val,
+            });
+        }
+        let loss = (loss_sum / k.max(1) as f64) as f32;
+        last_loss = Some(loss);
+        let last = epoch + 1 == sched.epochs;
+        let validate = !val_queries.is_empty()
+            && cfg.validation.every_epochs > 0
+            && ((epoch + 1) % cfg.validation.every_epochs == 0 || last);
+        let (val_accuracy, val_within1) = if validate {
+            let (a, b) = validation_accuracy(
+                &net.valid(),
+                &base,
+                cache,
+                zones,
+                &val_db,
+                &val_queries,
+                cfg,
+            )?;
+            last_val = Some(a);
+            (Some(a), Some(b))
+        } else {
+            (None, None)
+        };
+        history.push(EpochRecord {
+            epoch: epoch + 1,
+            loss,
+            val_accuracy,
+            val_within1,
+            elapsed_s: t0.elapsed().as_secs_f64(),
+        });
+        progress(&TrainProgress {
+            phase: Phase::Training,
+            done: (epoch + 1) * steps_per_epoch,
+            total: total_steps,
+            epoch: epoch + 1,
+            loss: last_loss,
+            val_accuracy: last_val,
+        });
+        let every = cfg.checkpoint_every_epochs;
+        if let Some(dir) = checkpoint_dir
+            && (last || (every > 0 && (epoch + 1) % every == 0))
+        {
+            save_checkpoint(
+                dir,
+                &net,
+                &optim,
+                &CheckpointState {
+                    epoch: epoch + 1,
+                    history: history.clone(),
+                    config: cfg.clone(),
+                    frames: n,
+                    zones: zones.len(),
+                },
+            )?;
+        }
+    }
+    Ok(Fitted {
+        net,
+        history,
+        resumed_after_epoch: resumed,
+        steps,
+        train_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+fn save_checkpoint(
+    dir: &Path,
+    net: &EmbeddingNet,
+    optim: &burn::optim::ModuleOptimizer,
+    state: &CheckpointState,
+) -> Result<(), NetError> {
+    std::fs::create_dir_all(dir).map_err(|e| NetError::io(dir, e))?;
+    // Write to temporary names, then rename: a crash mid-write leaves the old checkpoint.
+    let tmp = |name: &str| dir.join(format!(".{name}.tmp"));
+    let p = tmp(CKPT_NET);
+    net.clone()
+        .save_file(&p)
+        .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
+    let p = tmp(CKPT_OPTIM);
+    optim
+        .save(&p)
+        .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
+    let p = tmp(CKPT_STATE);
+    let text = serde_json::to_string_pretty(state).map_err(|e| NetError::Config(e.to_string()))?;
+    std::fs::write(&p, text).map_err(|e| NetError::io(&p, e))?;
+    for name in [CKPT_NET, CKPT_OPTIM, CKPT_STATE] {
+        let (from, to) = (tmp(name), dir.join(name));
+        // burn may add an extension to the file name it is given.
+        let from = if from.is_file() {
+            from
+        } else {
+            from.with_extension("tmp.bpk")
+        };
+        std::fs::rename(&from, &to).map_err(|e| NetError::io(&to, e))?;
+    }
+    Ok(())
+}
+
+/// Exact and ±1 zone accuracy of held-out frames against a database of other frames.
+fn validation_accuracy(
+    net: &EmbeddingNet,
+    device: &Device,
+    cache: &ImageCache,
+    zones: &ZoneTable,
+    db_frames: &[usize],
+    queries: &[usize],
+    cfg: &TrainConfig,
+) -> Result<(f32, f32), NetError> {
+    let dim = cfg.backbone.descriptor_dim();
+    let d = describe_cached(
+        net,
+        device,
+        cache,
+        db_frames,
+        cfg.inference_batch,
+        &mut |_| {},
+    );
+    let db = DescriptorDatabase::from_rows(
+        dim,
+        zones.len(),
+        d,
+        db_frames.iter().map(|&f| zones.zone_of_frame[f]).collect(),
+        db_frames.to_vec(),
+    )?;
+    let q = describe_cached(
+        net,
+        device,
+        cache,
+        queries,
+        cfg.inference_batch,
+        &mut |_| {},
+    );
+    let mut exact = 0;
+    let mut near = 0;
+    for (i, &f) in queries.iter().enumerate() {
+        let p = db.lookup(&q[i * dim..(i + 1) * dim], cfg.score)?;
+        let truth = zones.zone_of_frame[f];
+        exact += usize::from(p.zone == truth);
+        near += usize::from(p.zone.abs_diff(truth) <= 1);
+    }
+    let n = queries.len().max(1) as f32;
+    Ok((exact as f32 / n, near as f32 / n))
+}
+
+/// Where and how [`train`] writes the model folder.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TrainTarget {
+    /// The model folder to create.
+    pub dir: PathBuf,
+    /// Replace an existing model folder.
+    pub force: bool,
+    /// Continue from the checkpoint of an interrupted run (`DIR.partial/checkpoint`).
+    pub resume: bool,
+}
+
+impl TrainTarget {
+    /// The staging folder next to the model folder: `DIR.partial`.
+    pub fn staging_dir(&self) -> PathBuf {
+        let name = self
+            .dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "model".into());
+        self.dir.with_file_name(format!("{name}.partial"))
+    }
+}
+
+/// Trains a model on a training sequence and writes the model folder atomically: everything
+/// goes to `DIR.partial/` (checkpoints in `DIR.partial/checkpoint/`), which is renamed to
+/// `DIR` at the end. An existing `DIR` is refused unless `target.force`; an interrupted run
+/// is continued with `target.resume`.
+///
+/// `camera` is the training dataset's camera, stored so that a model refuses data from
+/// another camera. `dataset` names the dataset in `model.toml`.
+///
+/// # Errors
+/// [`NetError::AlreadyExists`] for an existing model (or an interrupted run without
+/// `resume`/`force`); [`NetError::Data`] for unreadable images; everything [`fit`] returns;
+/// [`NetError::Io`] while writing.
+pub fn train(
+    cfg: &TrainConfig,
+    seq: &Sequence,
+    zones: &ZoneTable,
+    camera: &Camera,
+    dataset: &str,
+    target: &TrainTarget,
+    progress: &mut dyn FnMut(&TrainProgress),
+) -> Result<TrainReport, NetError> {
+    cfg.validate()?;
+    if zones.frame_count() != seq.len() {
+        return Err(NetError::Config(format!(
+            "the zone table covers {} frames but sequence {} has {}",
+            zones.frame_count(),
+            seq.dir.display(),
+            seq.len()
+        )));
+    }
+    if target.dir.exists() && !target.force {
+        return Err(NetError::AlreadyExists {
+            path: target.dir.clone(),
+        });
+    }
+    let staging = target.staging_dir();
+    let ckpt = staging.join("checkpoint");
+    if staging.exists() {
+        if target.resume {
+            // keep it
+        } else if target.force {
+            std::fs::remove_dir_all(&staging).map_err(|e| NetError::io(&staging, e))?;
+        } else {
+            return Err(NetError::Config(format!(
+                "{} holds an interrupted training run: pass --resume to continue it or --force to start over",
+                staging.display()
+            )));
+        }
+    }
+    std::fs::create_dir_all(&staging).map_err(|e| NetError::io(&staging, e))?;
+
+    let t_load = Instant::now();
+    let size = cfg.backbone.input();
+    let total = seq.len();
+    let cache = ImageCache::from_sequence(seq, size, &mut |done| {
+        progress(&TrainProgress {
+            phase: Phase::LoadingImages,
+            done,
+            total,
+            epoch: 0,
+            loss: None,
+            val_accuracy: None,
+        })
+    })?;
+    let load_s = t_load.elapsed().as_secs_f64();
+
+    let fitted = fit(cfg, &cache, zones, Some(&ckpt), target.resume, progress)?;
+
+    let t_desc = Instant::now();
+    let base = crate::device::from_name(&cfg.device)?;
+    let net = fitted.net.valid();
+    let frames: Vec<usize> = (0..total).collect();
+    let descriptors = describe_cached(
+        &net,
+        &base,
+        &cache,
+        &frames,
+        cfg.inference_batch,
+        &mut |done| {
+            progress(&TrainProgress {
+                phase: Phase::Describing,
+                done,
+                total,
+                epoch: 0,
+                loss: None,
+                val_accuracy: None,
+            })
+        },
+    );
+    let describe_s = t_desc.elapsed().as_secs_f64();
+    let db = DescriptorDatabase::new(
+        cfg.backbone.descriptor_dim(),
+        zones.len(),
+        descriptors,
+        zones.zone_of_frame.clone(),
+    )?;
+    progress(&TrainProgress {
+        phase: Phase::Saving,
+        done: 0,
+        total: 1,
+        epoch: 0,
+        loss: None,
+        val_accuracy: None,
+    });
+    let model_cfg = ModelConfig {
+        format_version: model::FORMAT_VERSION,
+        backbone: cfg.backbone.clone(),
+        score: cfg.score,
+        temporal: TemporalConfig::default(),
+        camera: *camera,
+        dataset: dataset.to_string(),
+        sequence: seq.name.clone(),
+        frames: total,
+        zones: zones.config,
+        train: cfg.clone(),
+    };
+    model::write_model_files(&staging, &model_cfg, &net, zones, &db, seq, &fitted.history)?;
+    if ckpt.exists() {
+        std::fs::remove_dir_all(&ckpt).map_err(|e| NetError::io(&ckpt, e))?;
+    }
+    model::publish(&staging, &target.dir, target.force)?;
+    Ok(TrainReport {
+        model_dir: target.dir.clone(),
+        history: fitted.history,
+        resumed_after_epoch: fitted.resumed_after_epoch,
+        load_s,
+        train_s: fitted.train_s,
+        describe_s,
+        steps: fitted.steps,
+    })
+}

@@ -1,0 +1,246 @@
+//! Training, the model folder and the classifier on tiny synthetic sequences.
+
+use endoloc_data::{Sequence, StampedPose};
+use endoloc_geometry::{Camera, pose::pose_from_parts};
+use endoloc_net::backbone::BackboneConfig;
+use endoloc_net::train::{
+    ImageCache, Schedule, TrainConfig, TrainTarget, ValidationConfig, fit, train,
+};
+use endoloc_net::{
+    AugmentConfig, InputSize, NetError, UniformBy, ZoneClassifier, ZoneConfig, ZoneTable,
+};
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+
+const ZONES: usize = 4;
+const PER_ZONE: usize = 12;
+const W: u32 = 64;
+const H: u32 = 48;
+
+/// A frame of zone `z`: stripes whose orientation and frequency depend on the zone, a
+/// random phase and noise, so that zones are separable but frames differ.
+fn frame(z: usize, rng: &mut ChaCha8Rng) -> image::GrayImage {
+    let angle = z as f32 * std::f32::consts::PI / ZONES as f32;
+    let freq = 0.15 + 0.1 * z as f32;
+    let phase: f32 = rng.random_range(0.0..6.28);
+    let (s, c) = angle.sin_cos();
+    image::GrayImage::from_fn(W, H, |x, y| {
+        let v = ((x as f32 * c + y as f32 * s) * freq + phase).sin();
+        let n: f32 = rng.random_range(-0.2..0.2);
+        image::Luma([((v + n) * 100.0 + 128.0).clamp(0.0, 255.0) as u8])
+    })
+}
+
+fn camera() -> Camera {
+    Camera::from_hfov(W, H, 90.0)
+}
+
+/// Writes a sequence folder (images + poses.txt along x, 1 mm per frame) and opens it.
+fn write_sequence(dir: &Path, seed: u64) -> Sequence {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    std::fs::create_dir_all(dir.join("images")).unwrap();
+    let mut poses = Vec::new();
+    for i in 0..ZONES * PER_ZONE {
+        frame(i / PER_ZONE, &mut rng)
+            .save(dir.join("images").join(format!("{i:06}.png")))
+            .unwrap();
+        poses.push(StampedPose {
+            timestamp_s: i as f64 / 30.0,
+            pose: pose_from_parts(Vector3::new(i as f64, 0.0, 0.0), UnitQuaternion::identity()),
+        });
+    }
+    endoloc_data::write_tum(&dir.join("poses.txt"), &poses).unwrap();
+    Sequence::open(dir).unwrap()
+}
+
+fn tiny_config(epochs: usize) -> TrainConfig {
+    TrainConfig {
+        backbone: BackboneConfig::Compact {
+            input: InputSize {
+                width: 32,
+                height: 24,
+            },
+            channels: vec![8, 16],
+            descriptor_dim: 16,
+        },
+        schedule: Schedule {
+            epochs,
+            pairs_per_epoch: 32,
+            batch_pairs: 16,
+            learning_rate: 3e-3,
+            final_learning_rate: 1e-3,
+            share_images: true,
+        },
+        augment: AugmentConfig::off(),
+        validation: ValidationConfig {
+            holdout_every: 4,
+            every_epochs: epochs,
+            max_database_frames: 100,
+        },
+        checkpoint_every_epochs: 1,
+        seed: 7,
+        // The device is named explicitly (never `Device::default()` / BURN_DEVICE).
+        device: "cpu".into(),
+        ..TrainConfig::default()
+    }
+}
+
+fn zones_of(seq: &Sequence) -> ZoneTable {
+    ZoneTable::from_sequence(
+        seq,
+        &ZoneConfig::Uniform {
+            count: ZONES,
+            by: UniformBy::Frames,
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn loss_falls_on_a_tiny_separable_task_and_resume_continues() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = write_sequence(&tmp.path().join("train"), 1);
+    let zones = zones_of(&seq);
+    let cfg = tiny_config(30);
+    let cache = ImageCache::from_sequence(&seq, cfg.backbone.input(), &mut |_| {}).unwrap();
+    let fitted = fit(&cfg, &cache, &zones, None, false, &mut |_| {}).unwrap();
+    let h = &fitted.history;
+    assert_eq!(h.len(), 30);
+    let first: f32 = h[..3].iter().map(|r| r.loss).sum::<f32>() / 3.0;
+    let last: f32 = h[h.len() - 3..].iter().map(|r| r.loss).sum::<f32>() / 3.0;
+    assert!(last < 0.5 * first, "loss {first} → {last}");
+    let acc = h.last().unwrap().val_accuracy.unwrap();
+    assert!(acc >= 0.9, "held-out zone accuracy {acc}");
+
+    // Interrupted after 2 epochs, then resumed to 4: continues from the checkpoint.
+    let ckpt = tmp.path().join("ckpt");
+    let a = fit(
+        &tiny_config(2),
+        &cache,
+        &zones,
+        Some(&ckpt),
+        false,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(a.resumed_after_epoch, None);
+    let b = fit(
+        &tiny_config(4),
+        &cache,
+        &zones,
+        Some(&ckpt),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(b.resumed_after_epoch, Some(2));
+    assert_eq!(b.history.len(), 4);
+    assert_eq!(b.steps, 2 * tiny_config(4).schedule.steps_per_epoch());
+    assert_eq!(b.history[..2], a.history[..]);
+}
+
+#[test]
+fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = write_sequence(&tmp.path().join("train"), 2);
+    let zones = zones_of(&seq);
+    let cfg = tiny_config(12);
+    let target = TrainTarget {
+        dir: tmp.path().join("model"),
+        force: false,
+        resume: false,
+    };
+    let report = train(
+        &cfg,
+        &seq,
+        &zones,
+        &camera(),
+        "synthetic",
+        &target,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(report.history.len(), 12);
+    for f in [
+        "model.toml",
+        "weights.safetensors",
+        "zones.csv",
+        "database.bin",
+        "train_poses.txt",
+        "history.csv",
+    ] {
+        assert!(target.dir.join(f).is_file(), "{f} missing");
+    }
+    assert!(!target.staging_dir().exists());
+    // A second run refuses to overwrite.
+    let err = train(
+        &cfg,
+        &seq,
+        &zones,
+        &camera(),
+        "synthetic",
+        &target,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert!(matches!(err, NetError::AlreadyExists { .. }), "{err}");
+
+    let clf = ZoneClassifier::load(&target.dir).unwrap();
+    assert_eq!(clf.zone_count(), ZONES);
+    // Descriptors of the training frames after save → load equal the stored database rows,
+    // which were computed by the network before it was saved.
+    let imgs: Vec<image::GrayImage> = (0..seq.len()).map(|i| seq.load_gray(i).unwrap()).collect();
+    let d = clf.describe_batch(&imgs).unwrap();
+    for (i, q) in d.iter().enumerate() {
+        let row = clf.database().row(i).unwrap();
+        let diff = q
+            .iter()
+            .zip(row)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        assert!(diff < 1e-5, "frame {i}: max |Δ| {diff}");
+    }
+    // Loading twice gives bit-identical descriptors.
+    let again = ZoneClassifier::load(&target.dir)
+        .unwrap()
+        .describe(&imgs[5])
+        .unwrap();
+    assert_eq!(again, clf.describe(&imgs[5]).unwrap());
+    // New frames of each zone are classified correctly (a separable task).
+    let test = write_sequence(&tmp.path().join("test"), 99);
+    let preds = clf
+        .classify_batch(
+            &(0..test.len())
+                .map(|i| test.load_gray(i).unwrap())
+                .collect::<Vec<_>>(),
+        )
+        .unwrap();
+    let right = preds
+        .iter()
+        .enumerate()
+        .filter(|(i, p)| p.zone == i / PER_ZONE)
+        .count();
+    assert!(
+        right as f64 >= 0.9 * preds.len() as f64,
+        "{right}/{}",
+        preds.len()
+    );
+    assert_eq!(clf.truth_zone(&test.poses[30].pose), Some(2));
+
+    // Another camera or image size is a clear error.
+    let other = Camera::from_hfov(W * 2, H * 2, 90.0);
+    let err = clf.check_compatible(&other).unwrap_err().to_string();
+    assert!(err.contains("128x96") && err.contains("64x48"), "{err}");
+    let err = clf
+        .check_compatible(&Camera::from_hfov(W, H, 60.0))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("another camera"), "{err}");
+    let err = clf
+        .describe(&image::GrayImage::new(10, 10))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("10x10"), "{err}");
+}
