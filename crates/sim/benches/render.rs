@@ -22,7 +22,10 @@ fn bench_render(c: &mut Criterion) {
     let renderer = Renderer::new(&colon, &atlas, camera, cfg.render.clone()).expect("renderer");
     let mut traj = cfg.train.clone();
     traj.frames = 64;
-    let pass = PassGenerator::new(&colon, &traj).expect("pass").generate();
+    let pass = PassGenerator::new(&colon, &traj)
+        .expect("pass")
+        .generate()
+        .expect("pass");
 
     let mut group = c.benchmark_group("render_640x480");
     group.sample_size(10);

@@ -31,7 +31,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let camera = cfg.camera.camera()?;
     let renderer = Renderer::new(&colon, &atlas, camera, cfg.render.clone())?;
     let t = std::time::Instant::now();
-    let pass = PassGenerator::new(&colon, &cfg.train)?.generate();
+    let pass = PassGenerator::new(&colon, &cfg.train)?.generate()?;
     eprintln!("pass of {} frames in {:.2?}", pass.poses.len(), t.elapsed());
     let (cols, rows) = (4u32, 4u32);
     let (w, h) = (camera.width, camera.height);

@@ -36,7 +36,10 @@ pub struct AppearanceConfig {
     pub textureless_stretches: usize,
     /// Length of each textureless stretch, mm.
     pub textureless_length_mm: f64,
-    /// Global texture contrast multiplier (1 = nominal).
+    /// Texture contrast, multiplying each section's mottling and vessel strength. The default
+    /// 2.0 gives a median of about 55 SURF keypoints (threshold 200, the paper's setting; range
+    /// 9–256 over 30 frames of the `paper` preset) on 640×480 frames, and under 20 in the
+    /// textureless stretches.
     pub contrast: f64,
 }
 
@@ -49,7 +52,7 @@ impl Default for AppearanceConfig {
             reference_radius_mm: 20.0,
             textureless_stretches: 4,
             textureless_length_mm: 50.0,
-            contrast: 1.0,
+            contrast: 2.0,
         }
     }
 }
@@ -186,7 +189,7 @@ impl MucosaAtlas {
                         let base = (look.base[k] * m).clamp(0.0, 1.0);
                         rgb[k] = base * (1.0 - a) + look.vessel[k] * a;
                     }
-                    let relief = relief_noise.fbm(s / 0.6, v / 0.6, circumference / 0.6, 2);
+                    let relief = relief_noise.fbm(s / 1.2, v / 1.2, circumference / 1.2, 2);
                     let height = 0.5 + 0.35 * relief * c.max(0.3) as f64 + 0.15 * vessel as f64;
                     *texel = [
                         (rgb[0] * 255.0).round() as u8,

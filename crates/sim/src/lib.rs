@@ -30,6 +30,22 @@ pub enum SimError {
     /// A mid-line path that cannot be used (too short, non-finite points).
     #[error("invalid mid-line path: {0}")]
     InvalidPath(String),
+    /// The lumen is too narrow somewhere along a pass for the requested clearance.
+    #[error(
+        "the lumen is too narrow at {s_mm:.0} mm along the mid-line (frame {frame}): the lens can \
+         be kept only {achieved_mm:.2} mm from the wall, {required_mm} mm was asked; inflate the \
+         colon (--inflation 1.5) or lower the clearance (--clearance)"
+    )]
+    Clearance {
+        /// Frame of the pass.
+        frame: usize,
+        /// Arc length along the mid-line, mm.
+        s_mm: f64,
+        /// Best distance to the wall found, mm.
+        achieved_mm: f64,
+        /// Requested clearance, mm.
+        required_mm: f64,
+    },
     /// Reading inputs or writing the dataset failed.
     #[error(transparent)]
     Data(#[from] endoloc_data::DataError),

@@ -104,7 +104,7 @@ pub fn simulate(
     let mut sequences = Vec::new();
     let mut min_clearance = f64::INFINITY;
     for (name, generator) in &passes {
-        let pass = generator.generate();
+        let pass = generator.generate()?;
         min_clearance = pass
             .clearance_mm
             .iter()

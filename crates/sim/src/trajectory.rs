@@ -22,6 +22,12 @@ use std::f64::consts::TAU;
 use crate::SimError;
 use crate::colon::ColonModel;
 
+/// Arc length behind the scope whose wall counts for the clearance, mm.
+const CLEARANCE_BEHIND_MM: f64 = 120.0;
+/// Arc length ahead of the scope whose wall counts for the clearance, mm (covers the
+/// renderer's default view).
+const CLEARANCE_AHEAD_MM: f64 = 260.0;
+
 /// Parameters of one pass.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -282,7 +288,9 @@ impl<'a> PassGenerator<'a> {
     /// Shrinks the lateral offset (bisection) until the lens is `clearance_mm` from the wall;
     /// if even the mid-line is too close, steps away from the nearest wall point.
     fn keep_clear(&self, centre: Point3<f64>, offset: Vector3<f64>, s: f64) -> (Point3<f64>, f64) {
-        let window = (s - 40.0, s + 40.0);
+        // Every stretch of wall that can be drawn around the scope counts (with an inflated CT
+        // mesh a neighbouring loop can come close).
+        let window = (s - CLEARANCE_BEHIND_MM, s + CLEARANCE_AHEAD_MM);
         let need = self.cfg.clearance_mm;
         let dist = |p: &Point3<f64>| self.colon.distance_to_surface(p, window.0, window.1);
         let full = centre + offset;
@@ -306,8 +314,12 @@ impl<'a> PassGenerator<'a> {
         }
         // The mid-line itself is too close to a wall (a narrow or off-centre path): push away.
         let mut p = centre;
+        let mut best = (centre, d_centre);
         for _ in 0..50 {
             let (d, q) = dist(&p);
+            if d > best.1 {
+                best = (p, d);
+            }
             if d >= need {
                 return (p, d);
             }
@@ -319,24 +331,40 @@ impl<'a> PassGenerator<'a> {
             };
             p += dir * (need - d + 0.05);
         }
-        let d = dist(&p).0;
-        (p, d)
+        best
     }
 
     /// Generates every frame of the pass (in parallel).
-    pub fn generate(&self) -> Pass {
+    ///
+    /// # Errors
+    /// [`SimError::Clearance`] when the lumen somewhere along the pass is too narrow to keep
+    /// the lens `clearance_mm` from every wall (a narrow scanned colon: inflate it or lower
+    /// the clearance).
+    pub fn generate(&self) -> Result<Pass, SimError> {
         let n = self.cfg.frames;
         let frames: Vec<(Pose, f64, f64)> = (0..n)
             .into_par_iter()
             .map(|k| self.pose_at(k as f64))
             .collect();
-        Pass {
+        if let Some((k, f)) = frames
+            .iter()
+            .enumerate()
+            .find(|(_, f)| f.2 < self.cfg.clearance_mm - 1e-6)
+        {
+            return Err(SimError::Clearance {
+                frame: k,
+                s_mm: f.1,
+                achieved_mm: f.2,
+                required_mm: self.cfg.clearance_mm,
+            });
+        }
+        Ok(Pass {
             timestamps_s: (0..n).map(|k| k as f64 / self.cfg.fps).collect(),
             sections: frames.iter().map(|f| self.colon.section_at(f.1)).collect(),
             s_mm: frames.iter().map(|f| f.1).collect(),
             clearance_mm: frames.iter().map(|f| f.2).collect(),
             poses: frames.into_iter().map(|f| f.0).collect(),
-        }
+        })
     }
 
     /// The pass's config.

@@ -95,7 +95,10 @@ fn procedural_passes_stay_inside_the_lumen_with_clearance() {
     let cfg = SimConfig::preset(Preset::Small).with_seed(3);
     let colon = build_colon(&cfg).unwrap();
     for traj in [&cfg.train, &cfg.test] {
-        let pass = PassGenerator::new(&colon, traj).unwrap().generate();
+        let pass = PassGenerator::new(&colon, traj)
+            .unwrap()
+            .generate()
+            .unwrap();
         assert_inside_lumen(&colon, &pass, traj.clearance_mm);
         // The pass runs from the anal canal to the caecum.
         assert_eq!(pass.sections[0], Section::AnalCanal);
@@ -108,6 +111,7 @@ fn ct_mesh_passes_stay_inside_the_inflated_lumen() {
     let Some(dir) = gca_dir() else { return };
     let mut mesh = MeshColonConfig::from_gca_folder(&dir).unwrap();
     mesh.surface = dir.join("large_intestine_20k.vtk"); // faster, same colon
+    mesh.inflation = 1.5; // the scanned lumen is narrower than 2 × 3 mm in places
     let cfg = tiny_config(5).with_mesh_colon(mesh);
     let colon = build_colon(&cfg).unwrap();
     let len = colon.centerline.length_mm();
@@ -117,7 +121,10 @@ fn ct_mesh_passes_stay_inside_the_inflated_lumen() {
     assert_eq!(order, Section::ALL.to_vec());
     let mut traj = cfg.train.clone();
     traj.frames = 400;
-    let pass = PassGenerator::new(&colon, &traj).unwrap().generate();
+    let pass = PassGenerator::new(&colon, &traj)
+        .unwrap()
+        .generate()
+        .unwrap();
     assert_inside_lumen(&colon, &pass, traj.clearance_mm);
     assert_eq!(*pass.sections.last().unwrap(), Section::Caecum);
 }
@@ -131,7 +138,10 @@ fn rendered_pixels_back_project_onto_the_surface() {
     let atlas = MucosaAtlas::bake(&colon, &cfg.appearance).unwrap();
     let camera = cfg.camera.camera().unwrap();
     let renderer = Renderer::new(&colon, &atlas, camera, cfg.render.clone()).unwrap();
-    let pass = PassGenerator::new(&colon, &cfg.train).unwrap().generate();
+    let pass = PassGenerator::new(&colon, &cfg.train)
+        .unwrap()
+        .generate()
+        .unwrap();
     let mut scratch = RenderScratch::default();
     let mut checked = 0;
     for k in [0, 13, 27, 39] {
@@ -167,7 +177,10 @@ fn images_are_lit_from_the_tip_with_a_dark_lumen_ahead() {
     let atlas = MucosaAtlas::bake(&colon, &cfg.appearance).unwrap();
     let camera = cfg.camera.camera().unwrap();
     let renderer = Renderer::new(&colon, &atlas, camera, cfg.render.clone()).unwrap();
-    let pass = PassGenerator::new(&colon, &cfg.train).unwrap().generate();
+    let pass = PassGenerator::new(&colon, &cfg.train)
+        .unwrap()
+        .generate()
+        .unwrap();
     let frame = renderer.render(
         &[(pass.poses[20], pass.s_mm[20])],
         0,
@@ -261,7 +274,8 @@ fn simulate_writes_a_valid_dataset_and_refuses_to_overwrite() {
     // The stored config regenerates the same dataset.
     let stored = SimConfig::from_toml_file(&out.join("dataset.toml")).unwrap();
     assert_eq!(stored, cfg);
-    // CHECK_DATASET_PLACEHOLDER
+    let report = endoloc_data::check_dataset(&out).unwrap();
+    assert!(report.is_ok(), "{report:?}");
 
     let before = std::fs::read(out.join("train/poses.txt")).unwrap();
     let err = endoloc_sim::simulate(&tiny_config(5), &out, false, &|_| {}).unwrap_err();
@@ -285,11 +299,8 @@ fn bad_mesh_inputs_give_errors_naming_the_file() {
     let good_csv = tmp.path().join("good.csv");
     std::fs::write(&good_csv, "x,y,z\n0,0,0\n0,0,100\n0,0,200\n").unwrap();
 
-    let mesh_cfg = |surface: &Path, path: &Path| MeshColonConfig {
-        surface: surface.to_path_buf(),
-        path: path.to_path_buf(),
-        landmarks: None,
-        inflation: 1.0,
+    let mesh_cfg = |surface: &Path, path: &Path| {
+        MeshColonConfig::new(surface.to_path_buf(), path.to_path_buf(), None)
     };
     let err = build_colon(&tiny_config(1).with_mesh_colon(mesh_cfg(&vtk, &csv)))
         .unwrap_err()
@@ -302,6 +313,22 @@ fn bad_mesh_inputs_give_errors_naming_the_file() {
     let cfg = tiny_config(1).with_mesh_colon(mesh_cfg(&tmp.path().join("missing.ply"), &good_csv));
     let err = cfg.validate().unwrap_err().to_string();
     assert!(err.contains("missing.ply"), "{err}");
+}
+
+#[test]
+fn a_lumen_too_narrow_for_the_clearance_is_a_clear_error() {
+    let mut cfg = tiny_config(2);
+    cfg.train.clearance_mm = 40.0; // wider than the colon
+    let colon = build_colon(&cfg).unwrap();
+    let err = PassGenerator::new(&colon, &cfg.train)
+        .unwrap()
+        .generate()
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("too narrow") && err.contains("--clearance"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -24,6 +24,7 @@ use crate::ui;
 ///   endoloc simulate --preset paper --seed 3 --out data/paper
 ///
 ///   endoloc simulate --preset small --gca ../shared/data/gca-edin-00090 --out data/ct
+///   (Edinburgh Gut Cell Atlas model EdinGCA_3D_00090, CC BY 4.0: attribute it)
 ///
 ///   endoloc simulate --preset paper --print-config > sim.toml   # edit, then:
 ///   endoloc simulate --config sim.toml --out data/custom
@@ -65,7 +66,9 @@ pub struct Args {
     #[arg(long, requires = "mesh")]
     landmarks: Option<PathBuf>,
 
-    /// Grow a mesh colon's lumen radially about its mid-line (CT scans are not insufflated).
+    /// Grow a mesh colon's lumen radially about its mid-line (CT scans are not insufflated);
+    /// 1.0, the default, keeps the scanned wall. Where loops are packed, grown walls flatten
+    /// against each other.
     #[arg(long)]
     inflation: Option<f64>,
 
@@ -144,12 +147,11 @@ impl Args {
             );
         }
         if let (Some(mesh), Some(path)) = (&self.mesh, &self.path) {
-            cfg = cfg.with_mesh_colon(MeshColonConfig {
-                surface: mesh.clone(),
-                path: path.clone(),
-                landmarks: self.landmarks.clone(),
-                inflation: 2.5,
-            });
+            cfg = cfg.with_mesh_colon(MeshColonConfig::new(
+                mesh.clone(),
+                path.clone(),
+                self.landmarks.clone(),
+            ));
         }
         if let Some(f) = self.inflation {
             match &mut cfg.colon {

@@ -157,6 +157,63 @@ impl SurfaceMesh {
     }
 }
 
+/// A tube around a mid-line: rings every `ring_step_mm` (and a last one exactly at the end),
+/// `segments` vertices per ring at angles `θ = 2πj/segments` from the frame's normal towards its
+/// binormal, at distance `radius(s, θ)` (mm) from the mid-line.
+///
+/// On the inside of a bend the radius is capped at 0.9 × the bend radius (measured along the
+/// direction towards the centre of curvature), so neighbouring rings never cross and the
+/// surface never folds over itself.
+pub fn tube_surface(
+    c: &Centerline,
+    ring_step_mm: f64,
+    segments: usize,
+    radius: impl Fn(f64, f64) -> f64,
+) -> SurfaceMesh {
+    let length = c.length_mm();
+    let rings = (length / ring_step_mm).ceil() as usize + 1;
+    let m = segments;
+    let mut positions = Vec::with_capacity(rings * m);
+    let mut s_mm = Vec::with_capacity(rings * m);
+    let mut theta = Vec::with_capacity(rings * m);
+    let mut hint = Vec::with_capacity(rings * m);
+    for k in 0..rings {
+        let s = (k as f64 * ring_step_mm).min(length);
+        let centre = c.point_at(s);
+        let (_, n, b) = c.frame_at(s);
+        // Curvature vector κN = dT/ds over ±3 mm.
+        let (t_ahead, _, _) = c.frame_at(s + 3.0);
+        let (t_behind, _, _) = c.frame_at(s - 3.0);
+        let span = (s + 3.0).min(length) - (s - 3.0).max(0.0);
+        let curvature = (t_ahead - t_behind) / span.max(1e-9);
+        for j in 0..m {
+            let th = j as f64 * std::f64::consts::TAU / m as f64;
+            let dir = n * th.cos() + b * th.sin();
+            let inward = dir.dot(&curvature); // κ · cos(angle to the centre of curvature)
+            let mut r = radius(s, th);
+            if inward > 1e-9 {
+                r = r.min(0.9 / inward);
+            }
+            positions.push(centre + dir * r);
+            s_mm.push(s as f32);
+            theta.push(th as f32);
+            hint.push(centre);
+        }
+    }
+    let mut triangles = Vec::with_capacity((rings - 1) * m * 2);
+    for k in 0..rings - 1 {
+        for j in 0..m {
+            let a = (k * m + j) as u32;
+            let b = (k * m + (j + 1) % m) as u32;
+            let c2 = ((k + 1) * m + j) as u32;
+            let d = ((k + 1) * m + (j + 1) % m) as u32;
+            triangles.push([a, c2, d]);
+            triangles.push([a, d, b]);
+        }
+    }
+    SurfaceMesh::finalize(positions, s_mm, theta, triangles, 8.0, |i| hint[i])
+}
+
 /// A colon ready to be rendered: mid-line, sections and lumen surface.
 #[derive(Debug, Clone)]
 pub struct ColonModel {

@@ -491,40 +491,9 @@ fn wrap_angle(a: f64) -> f64 {
 }
 
 fn tube_mesh(c: &Centerline, profile: &RadiusProfile, cfg: &ProceduralColonConfig) -> SurfaceMesh {
-    let length = c.length_mm();
-    // Rings every `ring_step_mm`, and a last one exactly at the caecal pole (radius 0) so the
-    // surface is closed there.
-    let rings = (length / cfg.ring_step_mm).ceil() as usize + 1;
-    let m = cfg.ring_segments;
-    let mut positions = Vec::with_capacity(rings * m);
-    let mut s_mm = Vec::with_capacity(rings * m);
-    let mut theta = Vec::with_capacity(rings * m);
-    let mut hint = Vec::with_capacity(rings * m);
-    for k in 0..rings {
-        let s = (k as f64 * cfg.ring_step_mm).min(length);
-        let centre = c.point_at(s);
-        let (_, n, b) = c.frame_at(s);
-        for j in 0..m {
-            let th = j as f64 * TAU / m as f64;
-            let r = profile.radius(s, th);
-            positions.push(centre + (n * th.cos() + b * th.sin()) * r);
-            s_mm.push(s as f32);
-            theta.push(th as f32);
-            hint.push(centre);
-        }
-    }
-    let mut triangles = Vec::with_capacity((rings - 1) * m * 2);
-    for k in 0..rings - 1 {
-        for j in 0..m {
-            let a = (k * m + j) as u32;
-            let b = (k * m + (j + 1) % m) as u32;
-            let c2 = ((k + 1) * m + j) as u32;
-            let d = ((k + 1) * m + (j + 1) % m) as u32;
-            triangles.push([a, c2, d]);
-            triangles.push([a, d, b]);
-        }
-    }
-    SurfaceMesh::finalize(positions, s_mm, theta, triangles, 8.0, |i| hint[i])
+    super::tube_surface(c, cfg.ring_step_mm, cfg.ring_segments, |s, th| {
+        profile.radius(s, th)
+    })
 }
 
 #[cfg(test)]
