@@ -114,6 +114,53 @@ impl ZoneClassifier {
         })
     }
 
+    /// A classifier from its parts (a model not read from disk: tests, benchmarks, a network
+    /// trained in memory). `net` should be in validation mode (`net.valid()`).
+    ///
+    /// # Errors
+    /// [`NetError::Incompatible`] when the parts disagree (descriptor length, frame or zone
+    /// counts).
+    pub fn from_parts(
+        dir: PathBuf,
+        config: ModelConfig,
+        net: EmbeddingNet,
+        device: Device,
+        zones: ZoneTable,
+        database: DescriptorDatabase,
+        train_poses: Vec<Pose>,
+    ) -> Result<Self, NetError> {
+        if database.dim != config.backbone.descriptor_dim()
+            || database.len() != zones.frame_count()
+            || train_poses.len() != zones.frame_count()
+            || database.zones != zones.len()
+        {
+            return Err(NetError::Incompatible {
+                model: dir,
+                message: format!(
+                    "parts disagree: database {} rows of {} ({} zones), {} zones over {} frames, {} poses, descriptor length {}",
+                    database.len(),
+                    database.dim,
+                    database.zones,
+                    zones.len(),
+                    zones.frame_count(),
+                    train_poses.len(),
+                    config.backbone.descriptor_dim()
+                ),
+            });
+        }
+        let batch = config.train.inference_batch.max(1);
+        Ok(ZoneClassifier {
+            dir,
+            config,
+            net,
+            device,
+            zones,
+            database,
+            train_poses,
+            batch,
+        })
+    }
+
     /// The model's `model.toml`.
     pub fn config(&self) -> &ModelConfig {
         &self.config

@@ -27,6 +27,7 @@ pub mod model;
 pub mod pairs;
 pub mod plot;
 pub mod preprocess;
+pub mod pretrained;
 pub mod temporal;
 pub mod train;
 pub mod zones;

@@ -114,7 +114,8 @@ impl ModelConfig {
 /// # Errors
 /// [`NetError::Weights`].
 pub fn save_weights(net: &EmbeddingNet, path: &Path) -> Result<(), NetError> {
-    let mut store = SafetensorsStore::from_file(path);
+    // Names without the enum variant (`conv1.conv.weight`, as PyTorch would write them).
+    let mut store = SafetensorsStore::from_file(path).skip_enum_variants(true);
     net.save_into(&mut store)
         .map_err(|e| NetError::weights(path, e))
 }
@@ -133,7 +134,9 @@ pub fn load_weights(
         return Err(NetError::weights(path, "file not found"));
     }
     let mut net = cfg.init(device);
-    let mut store = SafetensorsStore::from_file(path).allow_partial(false);
+    let mut store = SafetensorsStore::from_file(path)
+        .skip_enum_variants(true)
+        .allow_partial(false);
     let result = net
         .load_from(&mut store)
         .map_err(|e| NetError::weights(path, e))?;

@@ -172,6 +172,9 @@ pub struct TrainConfig {
     pub inference_batch: usize,
     /// Compute device: `cpu`, `cuda`, `wgpu` or `auto` ([`crate::device::from_name`]).
     pub device: String,
+    /// Start from these weights (safetensors or a PyTorch state dict, [`crate::pretrained`])
+    /// instead of a random initialisation.
+    pub pretrained: Option<PathBuf>,
 }
 
 impl Default for TrainConfig {
@@ -189,6 +192,7 @@ impl Default for TrainConfig {
             score: ScoreRule::Nearest,
             inference_batch: 64,
             device: "cpu".into(),
+            pretrained: None,
         }
     }
 }
@@ -491,6 +495,21 @@ pub fn fit(
         device.seed(cfg.seed);
         cfg.backbone.init(&device)
     };
+    if let Some(p) = &cfg.pretrained {
+        let r = crate::pretrained::load_pretrained(&mut net, p)?;
+        tracing::info!(
+            "pretrained weights {}: {} tensors loaded, {} skipped, {} kept at their initial values{}",
+            p.display(),
+            r.applied,
+            r.skipped.len(),
+            r.missing.len(),
+            if r.conv1_from_rgb {
+                ", conv1 summed from RGB"
+            } else {
+                ""
+            }
+        );
+    }
     let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
     let mut history: Vec<EpochRecord> = Vec::new();
     let mut start_epoch = 0;

@@ -1,0 +1,196 @@
+//! Starting from weights a user supplies: a safetensors file or a PyTorch state dict
+//! (`.pt`/`.pth`), read with burn-store.
+//!
+//! Tensors are matched by name. The GoogLeNet backbone uses torchvision's `googlenet` names,
+//! so a torchvision state dict (or a Places/ImageNet GoogLeNet converted to that layout)
+//! loads directly: `branch4.1.*` is renamed to our `branch4_proj.*`, a 3-channel `conv1`
+//! kernel is summed over its colour channels for our grey input, and tensors that do not fit
+//! (torchvision's 1000-class `fc`, the auxiliary classifiers) are skipped and reported. For
+//! torchvision's weights build the backbone with `branch3_kernel = 3`: torchvision kept a 3×3
+//! kernel in the "5×5" branch. Any model's own `weights.safetensors` also loads (fine-tuning).
+
+use crate::NetError;
+use crate::backbone::EmbeddingNet;
+use burn::module::Param;
+use burn::tensor::{Tensor, TensorData};
+use burn_store::{ModuleSnapshot, ModuleStore, PytorchStore, SafetensorsStore};
+use std::path::Path;
+
+/// What was loaded.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct PretrainedReport {
+    /// Tensors loaded.
+    pub applied: usize,
+    /// Names in the file that matched nothing or did not fit (skipped).
+    pub skipped: Vec<String>,
+    /// Network tensors the file did not provide (kept at their initial values).
+    pub missing: Vec<String>,
+    /// Whether a 3-channel first convolution was summed to 1 channel.
+    pub conv1_from_rgb: bool,
+}
+
+const CONV1: &str = "conv1.conv.weight";
+
+fn not_conv1(path: &str, _container: &str) -> bool {
+    !path.ends_with(CONV1)
+}
+
+/// Loads the tensors of `path` that fit `net` (see the module documentation).
+///
+/// # Errors
+/// [`NetError::Weights`] when the file cannot be read or nothing in it fits the network.
+pub fn load_pretrained(net: &mut EmbeddingNet, path: &Path) -> Result<PretrainedReport, NetError> {
+    if !path.is_file() {
+        return Err(NetError::weights(path, "file not found"));
+    }
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let remap = (r"^(.*inception\w+)\.branch4\.1\.", "$1.branch4_proj.");
+    let mut report = PretrainedReport::default();
+    let (result, conv1) = match ext.as_str() {
+        "safetensors" => {
+            let mut store = SafetensorsStore::from_file(path)
+                .with_key_remapping(remap.0, remap.1)
+                .allow_partial(true)
+                .skip_enum_variants(true)
+                .with_predicate(not_conv1)
+                .validate(false);
+            let r = net
+                .load_from(&mut store)
+                .map_err(|e| NetError::weights(path, e))?;
+            let c = conv1_tensor(&mut store, path)?;
+            (r, c)
+        }
+        "pt" | "pth" | "bin" => {
+            let mut store = PytorchStore::from_file(path)
+                .with_key_remapping(remap.0, remap.1)
+                .allow_partial(true)
+                .skip_enum_variants(true)
+                .with_predicate(not_conv1)
+                .validate(false);
+            let r = net
+                .load_from(&mut store)
+                .map_err(|e| NetError::weights(path, e))?;
+            let c = conv1_tensor(&mut store, path)?;
+            (r, c)
+        }
+        other => {
+            return Err(NetError::weights(
+                path,
+                format!("unknown weights format {other:?}; expected .safetensors, .pt or .pth"),
+            ));
+        }
+    };
+    report.applied = result.applied.len();
+    report.skipped = result
+        .unused
+        .iter()
+        .cloned()
+        .chain(result.errors.iter().map(|e| format!("{e:?}")))
+        .filter(|n| !n.ends_with(CONV1))
+        .collect();
+    report.missing = result
+        .missing
+        .iter()
+        .map(|(n, _)| n.clone())
+        .filter(|n| !n.ends_with(CONV1))
+        .collect();
+    if let Some(data) = conv1 {
+        if set_conv1(net, data, &mut report).is_err() {
+            report.skipped.push(CONV1.into());
+        }
+    }
+    if report.applied == 0 {
+        return Err(NetError::weights(
+            path,
+            "no tensor in the file matches the backbone (is it the right architecture?)",
+        ));
+    }
+    Ok(report)
+}
+
+fn conv1_tensor<S: ModuleStore>(store: &mut S, path: &Path) -> Result<Option<TensorData>, NetError>
+where
+    S::Error: std::fmt::Display,
+{
+    match store
+        .get_tensor(CONV1)
+        .map_err(|e| NetError::weights(path, e))?
+    {
+        Some(t) => Ok(burn_store::bridge::to_data(t).ok()),
+        None => Ok(None),
+    }
+}
+
+/// Puts a `[64, c, k, k]` kernel into the first convolution, summing colour channels.
+fn set_conv1(
+    net: &mut EmbeddingNet,
+    data: TensorData,
+    report: &mut PretrainedReport,
+) -> Result<(), ()> {
+    let weight = match net {
+        EmbeddingNet::GoogLeNet(g) => &mut g.conv1.conv.weight,
+        EmbeddingNet::Compact(c) => match c.blocks.first_mut() {
+            Some(b) => &mut b.conv.weight,
+            None => return Err(()),
+        },
+    };
+    let target = weight.dims();
+    let shape = data.shape().clone();
+    let dims: Vec<usize> = shape.iter().copied().collect();
+    if dims.len() != 4 || dims[0] != target[0] || dims[2] != target[2] || dims[3] != target[3] {
+        return Err(());
+    }
+    let device = weight.device();
+    let t = Tensor::<4>::from_data(data, &device);
+    let t = match (dims[1], target[1]) {
+        (a, b) if a == b => t,
+        (3, 1) => {
+            report.conv1_from_rgb = true;
+            t.sum_dim(1)
+        }
+        _ => return Err(()),
+    };
+    *weight = Param::from_tensor(t);
+    report.applied += 1;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::backbone::BackboneConfig;
+    use crate::preprocess::InputSize;
+    use burn::module::Module;
+
+    #[test]
+    fn own_weights_load_as_pretrained_and_give_the_same_descriptors() {
+        let device = crate::device::cpu();
+        let cfg = BackboneConfig::Compact {
+            input: InputSize {
+                width: 32,
+                height: 24,
+            },
+            channels: vec![4, 8],
+            descriptor_dim: 8,
+        };
+        device.seed(5);
+        let a = cfg.init(&device);
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("w.safetensors");
+        crate::model::save_weights(&a, &p).unwrap();
+        device.seed(6);
+        let mut b = cfg.init(&device);
+        let r = load_pretrained(&mut b, &p).unwrap();
+        assert!(r.applied >= 8, "{r:?}");
+        assert!(r.missing.is_empty(), "{r:?}");
+        let x = Tensor::<4>::random([2, 1, 24, 32], burn::tensor::Distribution::Default, &device);
+        let (ya, yb) = (a.valid().forward(x.clone()), b.valid().forward(x));
+        let diff: f32 = (ya - yb).abs().max().into_scalar();
+        assert!(diff < 1e-6, "{diff}");
+        let err = load_pretrained(&mut b, &dir.path().join("nope.pth")).unwrap_err();
+        assert!(err.to_string().contains("not found"));
+    }
+}
