@@ -29,6 +29,10 @@ enum Command {
     Features(cmd::features::Args),
     Dataset(cmd::dataset::Args),
     Eval(cmd::eval::Args),
+    Train(cmd::train::Args),
+    Classify(cmd::classify::Args),
+    Map(cmd::localize::MapArgs),
+    Localize(cmd::localize::LocalizeArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -39,6 +43,10 @@ fn main() -> std::process::ExitCode {
         Command::Features(args) => cmd::features::run(args),
         Command::Dataset(args) => cmd::dataset::run(args),
         Command::Eval(args) => cmd::eval::run(args),
+        Command::Train(args) => cmd::train::run(args),
+        Command::Classify(args) => cmd::classify::run(args),
+        Command::Map(args) => cmd::localize::run_map(args),
+        Command::Localize(args) => cmd::localize::run_localize(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

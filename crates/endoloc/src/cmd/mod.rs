@@ -1,6 +1,9 @@
 //! One module per subcommand.
 
+pub mod classify;
 pub mod dataset;
 pub mod eval;
 pub mod features;
+pub mod localize;
 pub mod simulate;
+pub mod train;

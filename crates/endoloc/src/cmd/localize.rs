@@ -1,0 +1,305 @@
+//! `endoloc map` and `endoloc localize`: the geometric half of the method.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use anyhow::{Context, Result, bail};
+use endoloc_data::{Dataset, Sequence, StampedPose};
+use endoloc_eval::{FrameRecord, write_frames_csv};
+use endoloc_localize::export::{write_colmap_text, write_zone_ply};
+use endoloc_localize::map_io::{load_map, save_map};
+use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, MapConfig, build_map};
+use endoloc_net::ZoneClassifier;
+use rayon::prelude::*;
+
+use crate::ui;
+
+/// Build the per-zone 3-D maps of a trained model: SURF tracks over `m` images of each zone,
+/// triangulated with the known training poses; points reprojecting farther than δr are
+/// dropped. Writes map.toml and map.bin into the model folder, one PLY per zone
+/// (map_ply/zone_NNN.ply) and a COLMAP text model (map_colmap/).
+///
+/// Example:
+///
+///   endoloc map --model models/small --data data/small
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct MapArgs {
+    /// Model folder written by `endoloc train`.
+    #[arg(long, value_name = "DIR")]
+    pub model: PathBuf,
+    /// Dataset the model was trained on.
+    #[arg(long, value_name = "DIR")]
+    pub data: PathBuf,
+    /// Training sequence inside the dataset.
+    #[arg(long, default_value = "train")]
+    pub seq: String,
+    /// Images per zone (the paper's m ≥ 3).
+    #[arg(long, default_value_t = 8)]
+    pub images_per_zone: usize,
+    /// SURF threshold (the paper's MATLAB MetricThreshold).
+    #[arg(long, default_value_t = 200.0)]
+    pub threshold: f64,
+    /// δr: drop map points reprojecting farther than this, pixels.
+    #[arg(long, default_value_t = 10.0)]
+    pub delta_r: f64,
+    /// Replace an existing map.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Runs `endoloc map`.
+pub fn run_map(args: MapArgs) -> Result<()> {
+    if args.model.join("map.bin").exists() && !args.force {
+        bail!(
+            "{} already has a map (map.bin); pass --force to rebuild it",
+            args.model.display()
+        );
+    }
+    let classifier = ZoneClassifier::load(&args.model)
+        .with_context(|| format!("loading model {}", args.model.display()))?;
+    let dataset = Dataset::open(&args.data)?;
+    classifier.check_compatible(&dataset.meta.camera)?;
+    let train = dataset.sequence(&args.seq)?;
+    let mut cfg = MapConfig {
+        images_per_zone: args.images_per_zone,
+        ..MapConfig::default()
+    };
+    cfg.surf.threshold = args.threshold as f32;
+    cfg.triangulation.delta_r_px = args.delta_r;
+    let bar = ui::progress_bar(classifier.zone_count() as u64, "map");
+    let t = std::time::Instant::now();
+    let map = build_map(
+        &train,
+        classifier.zones(),
+        &dataset.meta.camera,
+        &cfg,
+        &|_| bar.inc(1),
+    )?;
+    bar.finish_and_clear();
+    let summary = map.summary();
+    save_map(&map, &args.model)?;
+    let ply_dir = args.model.join("map_ply");
+    std::fs::create_dir_all(&ply_dir).with_context(|| format!("creating {}", ply_dir.display()))?;
+    for z in &map.zones {
+        write_zone_ply(z, &ply_dir.join(format!("zone_{:03}.ply", z.zone)))?;
+    }
+    write_colmap_text(&map, &train, &args.model.join("map_colmap"))?;
+    for z in &summary.empty_zones {
+        eprintln!(
+            "warning: zone {z} has no map point (textureless?): its frames will be init_only"
+        );
+    }
+    println!(
+        "map       {} zones, {} points (median {} per zone), mean reprojection RMS {:.2} px, {:.1} s",
+        summary.zones,
+        summary.points,
+        summary.median_points_per_zone,
+        summary.mean_reprojection_rms_px,
+        t.elapsed().as_secs_f64()
+    );
+    println!(
+        "wrote     {}/map.bin, map_ply/, map_colmap/",
+        args.model.display()
+    );
+    Ok(())
+}
+
+/// Localize every frame of a sequence: zone (Siamese classifier) → initial pose = zone median
+/// → SURF matched to the zone's map points → Gauss-Newton on SE(3) → validity check.
+/// Writes trajectory.txt (TUM, T_wc, mm; one line per frame that has a pose) and frames.csv
+/// (frame, zone, zone score, status refined|init_only|rejected, reason, inliers,
+/// reprojection RMS, time) into --out. Then `endoloc eval --gt SEQ/poses.txt --est
+/// OUT/trajectory.txt` gives the errors.
+///
+/// Example:
+///
+///   endoloc localize --model models/small --seq data/small/test --out runs/small
+///
+///   endoloc localize --model models/small --seq data/small/test --out runs/live --live
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct LocalizeArgs {
+    /// Model folder (trained, with its map).
+    #[arg(long, value_name = "DIR")]
+    pub model: PathBuf,
+    /// Sequence folder to localize (images/ and, for evaluation, poses.txt), e.g. data/small/test.
+    #[arg(long, value_name = "DIR")]
+    pub seq: PathBuf,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Live mode: frames one at a time, in order, with causal temporal zone filtering, as a
+    /// scope would deliver them (no look-ahead; one frame in flight).
+    #[arg(long)]
+    pub live: bool,
+    /// Map points also come from this many zones on each side of the classified one.
+    #[arg(long, default_value_t = 1)]
+    pub neighbours: usize,
+    /// SURF threshold on the test frames (default: the one the map was built with).
+    #[arg(long)]
+    pub threshold: Option<f64>,
+    /// Replace existing results in --out.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Runs `endoloc localize`.
+pub fn run_localize(args: LocalizeArgs) -> Result<()> {
+    let outputs = ["trajectory.txt", "frames.csv"];
+    if !args.force
+        && let Some(existing) = outputs
+            .iter()
+            .map(|f| args.out.join(f))
+            .find(|p| p.exists())
+    {
+        bail!(
+            "{} exists; pass --force to replace the results in {}",
+            existing.display(),
+            args.out.display()
+        );
+    }
+    let classifier = ZoneClassifier::load(&args.model)
+        .with_context(|| format!("loading model {}", args.model.display()))?;
+    let map = load_map(&args.model)?;
+    let seq = Sequence::open(&args.seq)?;
+    let camera = dataset_camera(&args.seq)?;
+    classifier.check_compatible(&camera).with_context(|| {
+        format!(
+            "model {} vs sequence {}",
+            args.model.display(),
+            args.seq.display()
+        )
+    })?;
+    let mut cfg = LocalizerConfig {
+        neighbour_zones: args.neighbours,
+        surf: map.config.surf.clone(),
+        ..LocalizerConfig::default()
+    };
+    if let Some(t) = args.threshold {
+        cfg.surf.threshold = t as f32;
+    }
+    let localizer = Localizer::new(classifier, map, cfg)?;
+    let n = seq.len();
+    let bar = ui::progress_bar(n as u64, if args.live { "live" } else { "localize" });
+    let t = std::time::Instant::now();
+    let results: Vec<FrameResult> = if args.live {
+        let mut filter = localizer.temporal_filter();
+        let mut out = Vec::with_capacity(n);
+        for i in 0..n {
+            let img = seq.load_gray(i)?;
+            let t0 = std::time::Instant::now();
+            let pred = localizer.classify(&img)?;
+            let zone = filter.update(&pred);
+            let zone_ms = t0.elapsed().as_secs_f64() * 1e3;
+            let score = pred.zone_scores.get(zone).copied().unwrap_or(f32::NAN);
+            out.push(localizer.localize_in_zone(&img, zone, score, zone_ms)?);
+            bar.inc(1);
+        }
+        out
+    } else {
+        let done = AtomicUsize::new(0);
+        let r: Result<Vec<FrameResult>> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let img = seq.load_gray(i)?;
+                let r = localizer.localize(&img)?;
+                done.fetch_add(1, Ordering::Relaxed);
+                bar.inc(1);
+                Ok(r)
+            })
+            .collect();
+        r?
+    };
+    bar.finish_and_clear();
+    let wall = t.elapsed().as_secs_f64();
+    write_results(&args.out, &seq, &results)?;
+    print_summary(&results, wall);
+    println!(
+        "wrote     {}/trajectory.txt, frames.csv",
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// The camera of the dataset a sequence folder belongs to (its parent's dataset.toml).
+fn dataset_camera(seq_dir: &Path) -> Result<endoloc_geometry::Camera> {
+    let parent = seq_dir
+        .canonicalize()
+        .with_context(|| format!("{}", seq_dir.display()))?
+        .parent()
+        .map(Path::to_path_buf)
+        .context("the sequence folder has no parent dataset folder")?;
+    let ds = Dataset::open(&parent).with_context(|| {
+        format!(
+            "{} should be a sequence folder inside a dataset (with dataset.toml)",
+            seq_dir.display()
+        )
+    })?;
+    Ok(ds.meta.camera)
+}
+
+/// Writes trajectory.txt and frames.csv.
+pub fn write_results(out: &Path, seq: &Sequence, results: &[FrameResult]) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let trajectory: Vec<StampedPose> = results
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| {
+            r.t_wc.map(|pose| StampedPose {
+                timestamp_s: seq.poses[i].timestamp_s,
+                pose,
+            })
+        })
+        .collect();
+    endoloc_data::write_tum(&out.join("trajectory.txt"), &trajectory)?;
+    let rows: Vec<FrameRecord> = results
+        .iter()
+        .enumerate()
+        .map(|(i, r)| FrameRecord {
+            frame: i,
+            zone: Some(r.zone),
+            zone_score: Some(r.zone_score as f64),
+            status: r.status,
+            reason: r
+                .reason
+                .as_ref()
+                .map_or(String::new(), |x| x.code().to_string()),
+            inliers: Some(r.inliers),
+            reprojection_rms_px: r
+                .reprojection_rms_px
+                .is_finite()
+                .then_some(r.reprojection_rms_px),
+            time_ms: r.times.total_ms(),
+        })
+        .collect();
+    write_frames_csv(&out.join("frames.csv"), &rows)?;
+    Ok(())
+}
+
+/// Prints counts per status and per-stage median latency.
+pub fn print_summary(results: &[FrameResult], wall_s: f64) {
+    let count = |s: endoloc_geometry::Status| results.iter().filter(|r| r.status == s).count();
+    let n = results.len().max(1);
+    let median = |f: &dyn Fn(&FrameResult) -> f64| {
+        let mut v: Vec<f64> = results.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    };
+    println!(
+        "frames    {} — refined {:.1} %, init_only {:.1} %, rejected {:.1} %",
+        results.len(),
+        100.0 * count(endoloc_geometry::Status::Refined) as f64 / n as f64,
+        100.0 * count(endoloc_geometry::Status::InitOnly) as f64 / n as f64,
+        100.0 * count(endoloc_geometry::Status::Rejected) as f64 / n as f64,
+    );
+    println!(
+        "latency   median per frame {:.1} ms (zone {:.1}, SURF {:.1}, matching {:.1}, refine {:.2}); {:.1} s wall",
+        median(&|r| r.times.total_ms()),
+        median(&|r| r.times.zone_ms),
+        median(&|r| r.times.surf_ms),
+        median(&|r| r.times.matching_ms),
+        median(&|r| r.times.refine_ms),
+        wall_s
+    );
+}

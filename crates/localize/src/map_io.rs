@@ -1,0 +1,216 @@
+//! Saving and loading a [`Map`]: `map.toml` (settings, camera, counts — readable) next to
+//! `map.bin` (the points).
+//!
+//! `map.bin`, little-endian: magic `b"ENDOLOCMAP"`, format version `u32` (1), zone count `u32`;
+//! per zone: zone index `u32`, frame count `u32` + frames `u32`…, point count `u32`, descriptor
+//! length `u32`; per point: `x y z` `f64` (mm, world), RMS `f64` (px), Laplacian `i8`,
+//! descriptor `f32`…, observation count `u32` + (frame `u32`, `u` `f64`, `v` `f64`)….
+//! Written to a temporary file and renamed.
+
+use std::io::{Read, Write};
+use std::path::Path;
+
+use endoloc_geometry::Camera;
+use nalgebra::{Point2, Point3};
+use serde::{Deserialize, Serialize};
+
+use crate::LocalizeError;
+use crate::map::{Map, MapConfig, MapPoint, ZoneMap};
+
+const MAGIC: &[u8; 10] = b"ENDOLOCMAP";
+const VERSION: u32 = 1;
+
+/// `map.toml`: what the map was built with.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct MapMeta {
+    format_version: u32,
+    camera: Camera,
+    config: MapConfig,
+    zones: usize,
+    points: usize,
+    empty_zones: Vec<usize>,
+}
+
+fn file_err(path: &Path, e: impl std::fmt::Display) -> LocalizeError {
+    LocalizeError::File {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Writes `map.toml` and `map.bin` into `dir` (atomically, each via a temporary file).
+///
+/// # Errors
+/// [`LocalizeError::File`] on I/O errors.
+pub fn save_map(map: &Map, dir: &Path) -> Result<(), LocalizeError> {
+    let summary = map.summary();
+    let meta = MapMeta {
+        format_version: VERSION,
+        camera: map.camera,
+        config: map.config.clone(),
+        zones: summary.zones,
+        points: summary.points,
+        empty_zones: summary.empty_zones,
+    };
+    let toml_path = dir.join("map.toml");
+    let text = toml::to_string_pretty(&meta).map_err(|e| file_err(&toml_path, e))?;
+    write_atomic(&toml_path, text.as_bytes())?;
+
+    let mut buf: Vec<u8> = Vec::new();
+    buf.extend_from_slice(MAGIC);
+    put_u32(&mut buf, VERSION);
+    put_u32(&mut buf, map.zones.len() as u32);
+    for z in &map.zones {
+        put_u32(&mut buf, z.zone as u32);
+        put_u32(&mut buf, z.frames.len() as u32);
+        for &f in &z.frames {
+            put_u32(&mut buf, f as u32);
+        }
+        put_u32(&mut buf, z.points.len() as u32);
+        let dim = z.points.first().map_or(0, |p| p.descriptor.len());
+        put_u32(&mut buf, dim as u32);
+        for p in &z.points {
+            for v in [p.p_world.x, p.p_world.y, p.p_world.z, p.reprojection_rms_px] {
+                buf.extend_from_slice(&v.to_le_bytes());
+            }
+            buf.push(p.laplacian as u8);
+            for v in &p.descriptor {
+                buf.extend_from_slice(&v.to_le_bytes());
+            }
+            put_u32(&mut buf, p.observations.len() as u32);
+            for (f, px) in &p.observations {
+                put_u32(&mut buf, *f as u32);
+                buf.extend_from_slice(&px.x.to_le_bytes());
+                buf.extend_from_slice(&px.y.to_le_bytes());
+            }
+        }
+    }
+    write_atomic(&dir.join("map.bin"), &buf)
+}
+
+/// Reads a map written by [`save_map`].
+///
+/// # Errors
+/// [`LocalizeError::File`] for a missing, truncated or foreign file (naming it and what was
+/// expected).
+pub fn load_map(dir: &Path) -> Result<Map, LocalizeError> {
+    let toml_path = dir.join("map.toml");
+    let text = std::fs::read_to_string(&toml_path).map_err(|e| {
+        file_err(
+            &toml_path,
+            format!("{e} (build the map first: endoloc map --model …)"),
+        )
+    })?;
+    let meta: MapMeta = toml::from_str(&text).map_err(|e| file_err(&toml_path, e))?;
+    let bin_path = dir.join("map.bin");
+    let mut bytes = Vec::new();
+    std::fs::File::open(&bin_path)
+        .and_then(|mut f| f.read_to_end(&mut bytes))
+        .map_err(|e| file_err(&bin_path, e))?;
+    let mut r = Reader {
+        bytes: &bytes,
+        pos: 0,
+        path: &bin_path,
+    };
+    if r.take(MAGIC.len())? != MAGIC {
+        return Err(file_err(&bin_path, "not an endoloc map file (bad magic)"));
+    }
+    let version = r.u32()?;
+    if version != VERSION {
+        return Err(file_err(
+            &bin_path,
+            format!("map format {version}, expected {VERSION}"),
+        ));
+    }
+    let n_zones = r.u32()? as usize;
+    let mut zones = Vec::with_capacity(n_zones.min(100_000));
+    for _ in 0..n_zones {
+        let zone = r.u32()? as usize;
+        let nf = r.u32()? as usize;
+        let frames = (0..nf)
+            .map(|_| r.u32().map(|v| v as usize))
+            .collect::<Result<_, _>>()?;
+        let np = r.u32()? as usize;
+        let dim = r.u32()? as usize;
+        let mut points = Vec::with_capacity(np.min(1_000_000));
+        for _ in 0..np {
+            let (x, y, z, rms) = (r.f64()?, r.f64()?, r.f64()?, r.f64()?);
+            let laplacian = r.take(1)?[0] as i8;
+            let descriptor = (0..dim).map(|_| r.f32()).collect::<Result<_, _>>()?;
+            let no = r.u32()? as usize;
+            let mut observations = Vec::with_capacity(no.min(1000));
+            for _ in 0..no {
+                let f = r.u32()? as usize;
+                observations.push((f, Point2::new(r.f64()?, r.f64()?)));
+            }
+            points.push(MapPoint {
+                p_world: Point3::new(x, y, z),
+                descriptor,
+                laplacian,
+                observations,
+                reprojection_rms_px: rms,
+            });
+        }
+        zones.push(ZoneMap {
+            zone,
+            frames,
+            points,
+            rejected_tracks: 0,
+        });
+    }
+    Ok(Map {
+        config: meta.config,
+        camera: meta.camera,
+        zones,
+    })
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+    path: &'a Path,
+}
+
+impl Reader<'_> {
+    fn take(&mut self, n: usize) -> Result<&[u8], LocalizeError> {
+        let end = self.pos.checked_add(n).filter(|&e| e <= self.bytes.len());
+        let Some(end) = end else {
+            return Err(file_err(
+                self.path,
+                format!("truncated at byte {}: expected {n} more bytes", self.pos),
+            ));
+        };
+        let out = &self.bytes[self.pos..end];
+        self.pos = end;
+        Ok(out)
+    }
+    fn u32(&mut self) -> Result<u32, LocalizeError> {
+        let b = self.take(4)?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    }
+    fn f32(&mut self) -> Result<f32, LocalizeError> {
+        Ok(f32::from_bits(self.u32()?))
+    }
+    fn f64(&mut self) -> Result<f64, LocalizeError> {
+        let b = self.take(8)?;
+        let mut a = [0u8; 8];
+        a.copy_from_slice(b);
+        Ok(f64::from_le_bytes(a))
+    }
+}
+
+fn put_u32(buf: &mut Vec<u8>, v: u32) {
+    buf.extend_from_slice(&v.to_le_bytes());
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), LocalizeError> {
+    let tmp = path.with_extension(format!(
+        "{}.tmp",
+        path.extension().and_then(|e| e.to_str()).unwrap_or("")
+    ));
+    let mut f = std::fs::File::create(&tmp).map_err(|e| file_err(&tmp, e))?;
+    f.write_all(bytes).map_err(|e| file_err(&tmp, e))?;
+    f.sync_all().map_err(|e| file_err(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| file_err(path, e))
+}

@@ -1,0 +1,263 @@
+//! Localizing one test frame: the paper's two steps, with an honest status.
+//!
+//! 1. **Zone**: the Siamese classifier gives the zone (optionally filtered over time by the
+//!    causal HMM filter, as a live scope feed would allow).
+//! 2. **Initial pose**: the zone's median training pose.
+//! 3. **Registration**: SURF on the frame, matched (ratio test, mutual nearest, Laplacian
+//!    gating) to the map points of the zone and its `neighbour_zones` neighbours on each side.
+//! 4. **Refinement and check**: [`endoloc_geometry::localize_pose`] — Gauss-Newton on SE(3)
+//!    with left perturbation from the prior, a RANSAC restart when the prior is poor, and the
+//!    validity check (`refined` / `init_only` / `rejected` with a reason).
+
+use std::time::Instant;
+
+use endoloc_features::{Describe, Matcher, MatcherConfig, Surf, SurfConfig};
+use endoloc_geometry::{Camera, LocalizeConfig, Pose, Reason, Status, localize_pose};
+use endoloc_net::{TemporalConfig, TemporalFilter, ZoneClassifier, ZonePrediction};
+use nalgebra::{Point2, Point3};
+use serde::{Deserialize, Serialize};
+
+use crate::LocalizeError;
+use crate::map::{Map, MapPoint};
+
+/// Settings of the localizer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LocalizerConfig {
+    /// SURF on the test frame (the paper's settings by default).
+    pub surf: SurfConfig,
+    /// Matching test features to map points.
+    pub matcher: MatcherConfig,
+    /// Map points also come from this many zones on each side of the classified one.
+    pub neighbour_zones: usize,
+    /// Gauss-Newton, RANSAC restart and validity thresholds.
+    pub localize: LocalizeConfig,
+    /// Temporal zone filtering for `--live` (causal HMM forward filter).
+    pub temporal: TemporalConfig,
+}
+
+impl Default for LocalizerConfig {
+    fn default() -> Self {
+        LocalizerConfig {
+            surf: SurfConfig::default(),
+            matcher: MatcherConfig::default(),
+            neighbour_zones: 1,
+            localize: LocalizeConfig::new(),
+            temporal: TemporalConfig::default(),
+        }
+    }
+}
+
+/// Time spent in each stage of one frame, milliseconds.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StageTimes {
+    /// Siamese descriptor and zone look-up.
+    pub zone_ms: f64,
+    /// SURF detection and description.
+    pub surf_ms: f64,
+    /// Matching to the map points.
+    pub matching_ms: f64,
+    /// Gauss-Newton (and RANSAC) with the validity check.
+    pub refine_ms: f64,
+}
+
+impl StageTimes {
+    /// Sum of the stages, ms.
+    pub fn total_ms(&self) -> f64 {
+        self.zone_ms + self.surf_ms + self.matching_ms + self.refine_ms
+    }
+}
+
+/// The outcome for one frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameResult {
+    /// Zone used (after temporal filtering, if any).
+    pub zone: usize,
+    /// The classifier's score of that zone (descriptor distance, lower = better).
+    pub zone_score: f32,
+    /// `refined`, `init_only` or `rejected`.
+    pub status: Status,
+    /// Why, when not `refined`.
+    pub reason: Option<Reason>,
+    /// Pose `T_wc` (mm): refined, or the zone median for `init_only`; `None` when rejected.
+    pub t_wc: Option<Pose>,
+    /// Correspondences found by matching.
+    pub correspondences: usize,
+    /// Inliers of the final estimate.
+    pub inliers: usize,
+    /// RMS reprojection error of the inliers, pixels (NaN when no estimate).
+    pub reprojection_rms_px: f64,
+    /// Per-stage time.
+    pub times: StageTimes,
+}
+
+/// A ready-to-run localizer: classifier, maps and settings.
+pub struct Localizer {
+    classifier: ZoneClassifier,
+    map: Map,
+    cfg: LocalizerConfig,
+    surf: Surf,
+    matcher: Matcher,
+}
+
+impl Localizer {
+    /// Combines a classifier and its map.
+    ///
+    /// # Errors
+    /// [`LocalizeError::Mismatch`] when the map was built for another zone table or camera;
+    /// [`LocalizeError::Config`] for invalid settings.
+    pub fn new(
+        classifier: ZoneClassifier,
+        map: Map,
+        cfg: LocalizerConfig,
+    ) -> Result<Self, LocalizeError> {
+        if map.zones.len() != classifier.zone_count() {
+            return Err(LocalizeError::Mismatch(format!(
+                "the map has {} zones but the model has {}: rebuild it with endoloc map",
+                map.zones.len(),
+                classifier.zone_count()
+            )));
+        }
+        classifier.check_compatible(&map.camera)?;
+        let surf = cfg.surf.clone().init()?;
+        let matcher = Matcher::new(cfg.matcher.clone());
+        Ok(Localizer {
+            classifier,
+            map,
+            cfg,
+            surf,
+            matcher,
+        })
+    }
+
+    /// The camera of the model (test images must match it).
+    pub fn camera(&self) -> &Camera {
+        &self.map.camera
+    }
+
+    /// The classifier.
+    pub fn classifier(&self) -> &ZoneClassifier {
+        &self.classifier
+    }
+
+    /// The maps.
+    pub fn map(&self) -> &Map {
+        &self.map
+    }
+
+    /// A fresh temporal filter for a live sequence.
+    pub fn temporal_filter(&self) -> TemporalFilter {
+        TemporalFilter::new(self.classifier.zone_count(), self.cfg.temporal.clone())
+    }
+
+    /// Classifies a frame (step 1 alone).
+    ///
+    /// # Errors
+    /// Classifier errors (image of the wrong size…).
+    pub fn classify(&self, img: &image::GrayImage) -> Result<ZonePrediction, LocalizeError> {
+        Ok(self.classifier.classify(img)?)
+    }
+
+    /// Localizes a frame whose zone is already decided (`zone`, with its score), e.g. by
+    /// [`Localizer::classify`] and a temporal filter, or forced for a perturbation study.
+    ///
+    /// # Errors
+    /// Only for invalid input (an image the feature extractor rejects, a zone out of range);
+    /// a frame without features is an `init_only` result, not an error.
+    pub fn localize_in_zone(
+        &self,
+        img: &image::GrayImage,
+        zone: usize,
+        zone_score: f32,
+        zone_ms: f64,
+    ) -> Result<FrameResult, LocalizeError> {
+        let zones = &self.classifier.zones().zones;
+        let Some(z) = zones.get(zone) else {
+            return Err(LocalizeError::Config(format!(
+                "zone {zone} out of range (the model has {})",
+                zones.len()
+            )));
+        };
+        let prior = z.median_pose;
+        let mut times = StageTimes {
+            zone_ms,
+            ..Default::default()
+        };
+        let t = Instant::now();
+        let features = self.surf.detect_and_describe(img)?;
+        times.surf_ms = ms(t);
+
+        let t = Instant::now();
+        let lo = zone.saturating_sub(self.cfg.neighbour_zones);
+        let hi = (zone + self.cfg.neighbour_zones + 1).min(self.map.zones.len());
+        let candidates: Vec<&MapPoint> = self.map.zones[lo..hi]
+            .iter()
+            .flat_map(|zm| zm.points.iter())
+            .collect();
+        let matches = if features.is_empty() || candidates.is_empty() {
+            Vec::new()
+        } else {
+            self.matcher.match_descriptors(&features, &candidates)?
+        };
+        times.matching_ms = ms(t);
+
+        let t = Instant::now();
+        let points: Vec<Point3<f64>> = matches
+            .iter()
+            .map(|m| candidates[m.train].p_world)
+            .collect();
+        let pixels: Vec<Point2<f64>> = matches
+            .iter()
+            .map(|m| {
+                let kp = &features[m.query].keypoint;
+                Point2::new(kp.x as f64, kp.y as f64)
+            })
+            .collect();
+        let result = localize_pose(
+            &prior,
+            &points,
+            &pixels,
+            &self.map.camera,
+            &self.cfg.localize,
+        )
+        .map_err(|e| LocalizeError::Config(format!("pose refinement input: {e}")))?;
+        times.refine_ms = ms(t);
+        let (inliers, rms) = result
+            .estimate
+            .as_ref()
+            .map_or((0, f64::NAN), |e| (e.inlier_count, e.rms_px));
+        Ok(FrameResult {
+            zone,
+            zone_score,
+            status: result.verdict.status,
+            reason: result.verdict.reason,
+            t_wc: result.t_wc,
+            correspondences: matches.len(),
+            inliers,
+            reprojection_rms_px: rms,
+            times,
+        })
+    }
+
+    /// Localizes one frame: classify, then [`Localizer::localize_in_zone`].
+    ///
+    /// # Errors
+    /// As [`Localizer::localize_in_zone`], and classifier errors.
+    pub fn localize(&self, img: &image::GrayImage) -> Result<FrameResult, LocalizeError> {
+        let t = Instant::now();
+        let pred = self.classify(img)?;
+        let zone_ms = ms(t);
+        let score = pred.zone_scores.get(pred.zone).copied().unwrap_or(f32::NAN);
+        self.localize_in_zone(img, pred.zone, score, zone_ms)
+    }
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+// Map points are matched through the features crate's `Describe` trait.
+const _: fn() = || {
+    fn describes<T: Describe>() {}
+    describes::<&MapPoint>();
+};
