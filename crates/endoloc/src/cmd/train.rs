@@ -1,0 +1,280 @@
+//! `endoloc train`: zone the training sequence, train the Siamese network, write the model.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use endoloc_data::Dataset;
+use endoloc_net::backbone::BackboneConfig;
+use endoloc_net::train::{Phase, Schedule, TrainConfig, TrainTarget, train};
+use endoloc_net::{AugmentConfig, UniformBy, ZoneConfig, ZoneTable};
+
+/// Train the zone classifier (a Siamese network with the paper's contrastive loss) on the
+/// training sequence of a dataset and write a model folder: model.toml, weights.safetensors,
+/// zones.csv, database.bin (descriptors of every training frame), train_poses.txt,
+/// history.csv and loss.png.
+///
+/// Zones: `--zones 50` cuts the training trajectory into 50 zones of equal arc length
+/// (`--uniform-by frames` for equal frame counts); `--zones expert` makes one zone per
+/// anatomical section of sections.csv and splits long sections to 50 zones in all
+/// (`expert:N` for N zones).
+///
+/// Schedules: `fast` (default; 150 epochs of 128+128 pairs, batch 64 pairs sharing images,
+/// Adam 1e-3 → 1e-4) or `paper` (500 epochs of 128+128 pairs, batch 128, Adam 1e-3).
+///
+/// Examples:
+///
+///   endoloc train --data data/paper --zones 50 --out models/paper50
+///
+///   endoloc train --data data/paper --zones expert --out models/expert --schedule paper
+///
+///   endoloc train --data data/paper --zones 50 --out models/paper50 --resume
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Dataset folder (with dataset.toml).
+    #[arg(long, value_name = "DIR")]
+    data: PathBuf,
+
+    /// Training sequence inside the dataset.
+    #[arg(long, default_value = "train")]
+    seq: String,
+
+    /// Zones: a number (uniform) or `expert` / `expert:N` (anatomical, N zones, default 50).
+    #[arg(long, default_value = "50")]
+    zones: String,
+
+    /// Uniform zones of equal `arc-length` (default) or equal `frames`.
+    #[arg(long, default_value = "arc-length")]
+    uniform_by: String,
+
+    /// Model folder to write.
+    #[arg(long, value_name = "MODEL")]
+    out: PathBuf,
+
+    /// Replace an existing model folder (or discard an interrupted run).
+    #[arg(long)]
+    force: bool,
+
+    /// Continue an interrupted run from its checkpoint (MODEL.partial/checkpoint).
+    #[arg(long)]
+    resume: bool,
+
+    /// Backbone: `compact` (CPU default, 128x96 input) or `googlenet` (the paper's,
+    /// 224x224x1; for a GPU).
+    #[arg(long, default_value = "compact")]
+    backbone: String,
+
+    /// Schedule preset: `fast` or `paper`.
+    #[arg(long, default_value = "fast")]
+    schedule: String,
+
+    /// Training settings from a TOML file (fields of TrainConfig); the flags below override it.
+    #[arg(long, value_name = "TOML")]
+    config: Option<PathBuf>,
+
+    /// Number of epochs (overrides the schedule).
+    #[arg(long)]
+    epochs: Option<usize>,
+
+    /// Adam learning rate at the start (overrides the schedule).
+    #[arg(long)]
+    lr: Option<f64>,
+
+    /// Pairs per step (overrides the schedule).
+    #[arg(long)]
+    batch_pairs: Option<usize>,
+
+    /// Turn augmentation off.
+    #[arg(long)]
+    no_augment: bool,
+
+    /// Seed of every random step.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+
+    /// Compute device: cpu, cuda, wgpu (GPU builds only) or auto (BURN_DEVICE, else cpu).
+    #[arg(long, default_value = "cpu")]
+    device: String,
+
+    /// Start from these weights: a safetensors file or a PyTorch state dict (.pt/.pth);
+    /// GoogLeNet takes torchvision's names (use branch3_kernel = 3 in a --config file for
+    /// torchvision's weights).
+    #[arg(long, value_name = "FILE")]
+    pretrained: Option<PathBuf>,
+
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+/// Parses `--zones`.
+fn zone_config(spec: &str, by: &str) -> Result<ZoneConfig> {
+    let s = spec.trim().to_ascii_lowercase();
+    if let Some(rest) = s.strip_prefix("expert") {
+        let count = match rest.strip_prefix(':') {
+            Some(n) => n
+                .parse()
+                .with_context(|| format!("--zones {spec}: expected expert:N with N a number"))?,
+            None if rest.is_empty() => 50,
+            None => bail!("--zones {spec}: expected a number, `expert` or `expert:N`"),
+        };
+        return Ok(ZoneConfig::Expert { count });
+    }
+    let count: usize = s
+        .parse()
+        .with_context(|| format!("--zones {spec}: expected a number, `expert` or `expert:N`"))?;
+    Ok(ZoneConfig::Uniform {
+        count,
+        by: by.parse::<UniformBy>()?,
+    })
+}
+
+/// Turns the arguments into a training config.
+fn train_config(args: &Args) -> Result<TrainConfig> {
+    let mut cfg = match &args.config {
+        Some(p) => {
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            toml::from_str::<TrainConfig>(&text).with_context(|| format!("{}", p.display()))?
+        }
+        None => TrainConfig {
+            backbone: BackboneConfig::from_name(&args.backbone)?,
+            schedule: Schedule::from_name(&args.schedule)?,
+            ..TrainConfig::default()
+        },
+    };
+    if let Some(e) = args.epochs {
+        cfg.schedule.epochs = e;
+    }
+    if let Some(lr) = args.lr {
+        cfg.schedule.learning_rate = lr;
+        cfg.schedule.final_learning_rate = cfg.schedule.final_learning_rate.min(lr);
+    }
+    if let Some(b) = args.batch_pairs {
+        cfg.schedule.batch_pairs = b;
+    }
+    if args.no_augment {
+        cfg.augment = AugmentConfig::off();
+    }
+    cfg.seed = args.seed;
+    cfg.device = args.device.clone();
+    if args.pretrained.is_some() {
+        cfg.pretrained = args.pretrained.clone();
+    }
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+/// Runs `endoloc train`.
+pub fn run(args: Args) -> Result<()> {
+    if let Some(n) = args.threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build_global()
+            .context("setting the thread count")?;
+    }
+    let cfg = train_config(&args)?;
+    let zcfg = zone_config(&args.zones, &args.uniform_by)?;
+    let dataset = Dataset::open(&args.data)?;
+    let seq = dataset.sequence(&args.seq)?;
+    let zones = ZoneTable::from_sequence(&seq, &zcfg)?;
+    eprintln!(
+        "training {} on {} ({} frames, {} zones, {}), {} epochs of {} pairs, device {}",
+        cfg.backbone.name(),
+        seq.dir.display(),
+        seq.len(),
+        zones.len(),
+        match zcfg {
+            ZoneConfig::Uniform {
+                by: UniformBy::ArcLength,
+                ..
+            } => "uniform by arc length",
+            ZoneConfig::Uniform {
+                by: UniformBy::Frames,
+                ..
+            } => "uniform by frames",
+            ZoneConfig::Expert { .. } => "anatomical",
+        },
+        cfg.schedule.epochs,
+        cfg.schedule.pairs_per_epoch,
+        cfg.device
+    );
+    let target = TrainTarget {
+        dir: args.out.clone(),
+        force: args.force,
+        resume: args.resume,
+    };
+    let t0 = Instant::now();
+    let mut bar: Option<(Phase, indicatif::ProgressBar)> = None;
+    let report = train(
+        &cfg,
+        &seq,
+        &zones,
+        &dataset.meta.camera,
+        &dataset.meta.name,
+        &target,
+        &mut |p| {
+            if bar.as_ref().is_none_or(|(ph, _)| *ph != p.phase) {
+                if let Some((_, b)) = bar.take() {
+                    b.finish();
+                }
+                let label = match p.phase {
+                    Phase::LoadingImages => "loading",
+                    Phase::Training => "training",
+                    Phase::Describing => "describing",
+                    Phase::Saving => "saving",
+                };
+                bar = Some((p.phase, crate::ui::progress_bar(p.total as u64, label)));
+            }
+            if let Some((_, b)) = &bar {
+                b.set_position(p.done as u64);
+                if p.phase == Phase::Training {
+                    let loss = p.loss.map_or("-".into(), |l| format!("{l:.4}"));
+                    let val = p
+                        .val_accuracy
+                        .map_or(String::new(), |a| format!(" val {:.1}%", 100.0 * a));
+                    b.set_message(format!("ep {} loss {loss}{val}", p.epoch));
+                }
+            }
+        },
+    )?;
+    if let Some((_, b)) = bar.take() {
+        b.finish_and_clear();
+    }
+    let last = report.history.last();
+    if let Some(n) = report.resumed_after_epoch {
+        println!("resumed      after epoch {n}");
+    }
+    println!("model        {}", report.model_dir.display());
+    println!(
+        "zones        {} ({} frames)",
+        zones.len(),
+        zones.frame_count()
+    );
+    if let Some(r) = last {
+        println!("final loss   {:.4} (epoch {})", r.loss, r.epoch);
+    }
+    if let Some(r) = report
+        .history
+        .iter()
+        .rev()
+        .find(|r| r.val_accuracy.is_some())
+    {
+        println!(
+            "validation   {:.1} % exact, {:.1} % within ±1 zone (held-out training frames, epoch {})",
+            100.0 * r.val_accuracy.unwrap_or(0.0),
+            100.0 * r.val_within1.unwrap_or(0.0),
+            r.epoch
+        );
+    }
+    println!(
+        "time         {:.1} s total: load {:.1} s, train {:.1} s ({} steps), describe {:.1} s",
+        t0.elapsed().as_secs_f64(),
+        report.load_s,
+        report.train_s,
+        report.steps,
+        report.describe_s
+    );
+    Ok(())
+}
