@@ -33,6 +33,7 @@ enum Command {
     Classify(cmd::classify::Args),
     Map(cmd::localize::MapArgs),
     Localize(cmd::localize::LocalizeArgs),
+    Demo(cmd::demo::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -47,6 +48,7 @@ fn main() -> std::process::ExitCode {
         Command::Classify(args) => cmd::classify::run(args),
         Command::Map(args) => cmd::localize::run_map(args),
         Command::Localize(args) => cmd::localize::run_localize(args),
+        Command::Demo(args) => cmd::demo::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -2,6 +2,7 @@
 
 pub mod classify;
 pub mod dataset;
+pub mod demo;
 pub mod eval;
 pub mod features;
 pub mod localize;
