@@ -34,6 +34,10 @@ pub struct LocalizerConfig {
     pub localize: LocalizeConfig,
     /// Temporal zone filtering for `--live` (causal HMM forward filter).
     pub temporal: TemporalConfig,
+    /// Zones tried, best classifier score first, until one gives a `refined` pose (beyond the
+    /// paper, which trusts the top zone): a misclassified frame usually fails to register in
+    /// the wrong zone's map and succeeds in the right one. 1 = the paper's behaviour.
+    pub candidate_zones: usize,
 }
 
 impl Default for LocalizerConfig {
@@ -44,6 +48,7 @@ impl Default for LocalizerConfig {
             neighbour_zones: 1,
             localize: LocalizeConfig::new(),
             temporal: TemporalConfig::default(),
+            candidate_zones: 3,
         }
     }
 }
@@ -178,7 +183,7 @@ impl Localizer {
                 zones.len()
             )));
         };
-        let prior = z.median_pose;
+        let _ = z;
         let mut times = StageTimes {
             zone_ms,
             ..Default::default()
@@ -186,7 +191,18 @@ impl Localizer {
         let t = Instant::now();
         let features = self.surf.detect_and_describe(img)?;
         times.surf_ms = ms(t);
+        self.register(&features, zone, zone_score, times)
+    }
 
+    /// Steps 3–4 for precomputed SURF features of the frame, in one zone.
+    fn register(
+        &self,
+        features: &[endoloc_features::Feature],
+        zone: usize,
+        zone_score: f32,
+        mut times: StageTimes,
+    ) -> Result<FrameResult, LocalizeError> {
+        let prior = self.classifier.zones().zones[zone].median_pose;
         let t = Instant::now();
         let lo = zone.saturating_sub(self.cfg.neighbour_zones);
         let hi = (zone + self.cfg.neighbour_zones + 1).min(self.map.zones.len());
@@ -197,7 +213,7 @@ impl Localizer {
         let matches = if features.is_empty() || candidates.is_empty() {
             Vec::new()
         } else {
-            self.matcher.match_descriptors(&features, &candidates)?
+            self.matcher.match_descriptors(features, &candidates)?
         };
         times.matching_ms = ms(t);
 
@@ -247,8 +263,75 @@ impl Localizer {
         let t = Instant::now();
         let pred = self.classify(img)?;
         let zone_ms = ms(t);
-        let score = pred.zone_scores.get(pred.zone).copied().unwrap_or(f32::NAN);
-        self.localize_in_zone(img, pred.zone, score, zone_ms)
+        self.localize_with_prediction(img, &pred, pred.zone, zone_ms)
+    }
+
+    /// Localizes a frame given the classifier's prediction and the zone chosen from it (the
+    /// top zone, or a temporally filtered one): that zone first, then the next best-scoring
+    /// zones (up to [`LocalizerConfig::candidate_zones`] in all) until one gives `refined`;
+    /// otherwise the result with the most inliers from the chosen zone's attempts, preferring
+    /// the chosen zone on ties.
+    ///
+    /// # Errors
+    /// As [`Localizer::localize_in_zone`].
+    pub fn localize_with_prediction(
+        &self,
+        img: &image::GrayImage,
+        pred: &ZonePrediction,
+        chosen: usize,
+        zone_ms: f64,
+    ) -> Result<FrameResult, LocalizeError> {
+        let n_zones = self.classifier.zone_count();
+        if chosen >= n_zones {
+            return Err(LocalizeError::Config(format!(
+                "zone {chosen} out of range (the model has {n_zones})"
+            )));
+        }
+        let mut order: Vec<usize> = (0..n_zones).filter(|&z| z != chosen).collect();
+        order.sort_by(|&a, &b| {
+            let sa = pred.zone_scores.get(a).copied().unwrap_or(f32::INFINITY);
+            let sb = pred.zone_scores.get(b).copied().unwrap_or(f32::INFINITY);
+            sa.total_cmp(&sb)
+        });
+        order.insert(0, chosen);
+        order.truncate(self.cfg.candidate_zones.max(1));
+
+        let mut times = StageTimes {
+            zone_ms,
+            ..Default::default()
+        };
+        let t = Instant::now();
+        let features = self.surf.detect_and_describe(img)?;
+        times.surf_ms = ms(t);
+        let mut first: Option<FrameResult> = None;
+        let mut spent = StageTimes::default();
+        for zone in order {
+            let score = pred.zone_scores.get(zone).copied().unwrap_or(f32::NAN);
+            let r = self.register(&features, zone, score, times)?;
+            spent.matching_ms += r.times.matching_ms;
+            spent.refine_ms += r.times.refine_ms;
+            if r.status == Status::Refined {
+                return Ok(FrameResult {
+                    times: StageTimes {
+                        matching_ms: spent.matching_ms,
+                        refine_ms: spent.refine_ms,
+                        ..times
+                    },
+                    ..r
+                });
+            }
+            first.get_or_insert(r);
+        }
+        // No zone registered: report the chosen zone's verdict (its median pose, or rejected).
+        let r = first.ok_or_else(|| LocalizeError::Config("no candidate zone".into()))?;
+        Ok(FrameResult {
+            times: StageTimes {
+                matching_ms: spent.matching_ms,
+                refine_ms: spent.refine_ms,
+                ..times
+            },
+            ..r
+        })
     }
 }
 

@@ -139,6 +139,10 @@ pub struct LocalizeArgs {
     /// SURF threshold on the test frames (default: the one the map was built with).
     #[arg(long)]
     pub threshold: Option<f64>,
+    /// Zones tried (best classifier score first) until one registers; 1 = trust the top zone
+    /// as the paper does.
+    #[arg(long, default_value_t = 3)]
+    pub candidate_zones: usize,
     /// Replace existing results in --out.
     #[arg(long)]
     pub force: bool,
@@ -173,6 +177,7 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
     })?;
     let mut cfg = LocalizerConfig {
         neighbour_zones: args.neighbours,
+        candidate_zones: args.candidate_zones,
         surf: map.config.surf.clone(),
         ..LocalizerConfig::default()
     };
@@ -192,8 +197,7 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
             let pred = localizer.classify(&img)?;
             let zone = filter.update(&pred);
             let zone_ms = t0.elapsed().as_secs_f64() * 1e3;
-            let score = pred.zone_scores.get(zone).copied().unwrap_or(f32::NAN);
-            out.push(localizer.localize_in_zone(&img, zone, score, zone_ms)?);
+            out.push(localizer.localize_with_prediction(&img, &pred, zone, zone_ms)?);
             bar.inc(1);
         }
         out
