@@ -1,0 +1,148 @@
+//! Per-zone maps on a simulated pass: triangulated points must lie on the rendered surface
+//! (checked against the simulator's depth maps), survive a save/load round trip, and a damaged
+//! map file must give an error naming it.
+
+use endoloc_data::Dataset;
+use endoloc_localize::map_io::{load_map, save_map};
+use endoloc_localize::{MapConfig, build_map};
+use endoloc_net::{UniformBy, ZoneConfig, ZoneTable};
+use endoloc_sim::{Preset, SimConfig};
+
+fn simulated_map() -> (tempfile::TempDir, endoloc_localize::Map, Dataset) {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut cfg = SimConfig::preset(Preset::Small).with_seed(1);
+    cfg.train.frames = 300;
+    cfg.test.frames = 2;
+    cfg.depth = true;
+    let out = tmp.path().join("ds");
+    endoloc_sim::simulate(&cfg, &out, false, &|_| {}).unwrap();
+    let ds = Dataset::open(&out).unwrap();
+    let train = ds.sequence("train").unwrap();
+    let zones = ZoneTable::from_sequence(
+        &train,
+        &ZoneConfig::Uniform {
+            count: 20,
+            by: UniformBy::ArcLength,
+        },
+    )
+    .unwrap();
+    let mut map_cfg = MapConfig {
+        images_per_zone: 8,
+        ..MapConfig::default()
+    };
+    map_cfg.surf.threshold = 50.0;
+    let map = build_map(&train, &zones, &ds.meta.camera, &map_cfg, &|_| {}).unwrap();
+    (tmp, map, ds)
+}
+
+#[test]
+fn map_points_lie_on_the_rendered_surface_and_round_trip() {
+    let (tmp, map, ds) = simulated_map();
+    let summary = map.summary();
+    assert_eq!(summary.zones, 20);
+    assert!(summary.points >= 500, "only {} map points", summary.points);
+    assert!(summary.mean_reprojection_rms_px < 2.0, "{summary:?}");
+
+    // Each observation of a map point: its depth along the optical axis must match the depth
+    // the renderer wrote at that pixel.
+    let train = ds.sequence("train").unwrap();
+    let camera = ds.meta.camera;
+    let (mut good, mut total) = (0usize, 0usize);
+    let mut ratios: Vec<f64> = Vec::new();
+    let mut depth_cache = std::collections::HashMap::new();
+    for z in &map.zones {
+        for p in &z.points {
+            for (frame, px) in &p.observations {
+                let depth = depth_cache
+                    .entry(*frame)
+                    .or_insert_with(|| train.load_depth_mm(*frame).unwrap().2);
+                let p_cam = train.poses[*frame].pose.inverse() * p.p_world;
+                let (u, v) = (px.x.round() as i64, px.y.round() as i64);
+                if u < 0 || v < 0 || u >= camera.width as i64 || v >= camera.height as i64 {
+                    continue;
+                }
+                // A blob on a fold's silhouette sees the fold or the wall behind it within a few
+                // pixels: accept the nearest depth in the 5×5 neighbourhood.
+                let (w, h) = (camera.width as i64, camera.height as i64);
+                let mut best = f64::INFINITY;
+                for dv in -2..=2 {
+                    for du in -2..=2 {
+                        let (uu, vv) = (u + du, v + dv);
+                        if uu < 0 || vv < 0 || uu >= w || vv >= h {
+                            continue;
+                        }
+                        let d = depth[(vv * w + uu) as usize] as f64;
+                        if d > 0.0 && (p_cam.z - d).abs() < (p_cam.z - best).abs() {
+                            best = d;
+                        }
+                    }
+                }
+                if !best.is_finite() {
+                    continue;
+                }
+                total += 1;
+                ratios.push(p_cam.z / best);
+                if (p_cam.z - best).abs() < (0.05 * best).max(1.0) {
+                    good += 1;
+                }
+            }
+        }
+    }
+    ratios.sort_by(f64::total_cmp);
+    let q = |f: f64| ratios[((ratios.len() - 1) as f64 * f) as usize];
+    eprintln!(
+        "depth ratio triangulated/rendered: p10 {:.3} p25 {:.3} median {:.3} p75 {:.3} p90 {:.3}",
+        q(0.1),
+        q(0.25),
+        q(0.5),
+        q(0.75),
+        q(0.9)
+    );
+    assert!(total > 100, "only {total} observations checked");
+    // No bias (this pins the camera, pose and pixel conventions of map building against the
+    // renderer's), and most points on the surface. The tails are the points seen with little
+    // parallax by a scope moving along the lumen (the paper's caveat) and specular blobs.
+    assert!((q(0.5) - 1.0).abs() < 0.02, "median depth ratio {}", q(0.5));
+    assert!(
+        q(0.25) > 0.9 && q(0.75) < 1.1,
+        "interquartile depth ratio {} – {}",
+        q(0.25),
+        q(0.75)
+    );
+    let fraction = good as f64 / total as f64;
+    assert!(
+        fraction > 0.45,
+        "{good}/{total} observations within 5 % of the rendered depth"
+    );
+
+    let dir = tmp.path().join("model");
+    std::fs::create_dir_all(&dir).unwrap();
+    save_map(&map, &dir).unwrap();
+    let back = load_map(&dir).unwrap();
+    assert_eq!(back.zones.len(), map.zones.len());
+    for (a, b) in back.zones.iter().zip(&map.zones) {
+        assert_eq!(a.points, b.points);
+        assert_eq!(a.frames, b.frames);
+    }
+    assert_eq!(back.camera, map.camera);
+
+    // A truncated map.bin is an error naming the file.
+    let bin = dir.join("map.bin");
+    let bytes = std::fs::read(&bin).unwrap();
+    std::fs::write(&bin, &bytes[..bytes.len() / 2]).unwrap();
+    let err = load_map(&dir).unwrap_err().to_string();
+    assert!(
+        err.contains("map.bin") && err.contains("truncated"),
+        "{err}"
+    );
+}
+
+#[test]
+fn too_few_images_per_zone_is_a_config_error() {
+    let cfg = MapConfig {
+        images_per_zone: 2,
+        ..MapConfig::default()
+    };
+    let err = cfg.validate().unwrap_err().to_string();
+    assert!(err.contains("images_per_zone"), "{err}");
+}
