@@ -34,6 +34,7 @@ enum Command {
     Map(cmd::localize::MapArgs),
     Localize(cmd::localize::LocalizeArgs),
     Demo(cmd::demo::Args),
+    Run(cmd::run::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -49,6 +50,7 @@ fn main() -> std::process::ExitCode {
         Command::Map(args) => cmd::localize::run_map(args),
         Command::Localize(args) => cmd::localize::run_localize(args),
         Command::Demo(args) => cmd::demo::run(args),
+        Command::Run(args) => cmd::run::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -43,7 +43,7 @@ pub struct Args {
 }
 
 /// Parses one stage's arguments exactly as the command line would.
-fn parse<T: clap::Args>(argv: &[String]) -> Result<T> {
+pub(crate) fn parse<T: clap::Args>(argv: &[String]) -> Result<T> {
     #[derive(Parser)]
     struct Wrap<A: clap::Args> {
         #[command(flatten)]
@@ -54,7 +54,7 @@ fn parse<T: clap::Args>(argv: &[String]) -> Result<T> {
         .args)
 }
 
-fn stage(title: &str, argv: &[String]) {
+pub(crate) fn stage(title: &str, argv: &[String]) {
     eprintln!("\n== {title}: endoloc {}", argv.join(" "));
 }
 

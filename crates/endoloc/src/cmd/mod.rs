@@ -6,5 +6,6 @@ pub mod demo;
 pub mod eval;
 pub mod features;
 pub mod localize;
+pub mod run;
 pub mod simulate;
 pub mod train;

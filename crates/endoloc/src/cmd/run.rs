@@ -1,0 +1,245 @@
+//! `endoloc run --config experiment.toml`: the whole chain from one config file.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use serde::Deserialize;
+
+use crate::cmd;
+use crate::cmd::demo::{parse, stage};
+
+/// Run simulate (or use an existing dataset), train, map, localize and eval from one TOML file.
+/// The file is copied to OUT/experiment.toml so the run can be repeated from its own outputs.
+///
+/// Example experiment.toml (every table but `out` is optional; values shown are defaults
+/// unless marked):
+///
+///   out = "experiments/paper50"        # required
+///   data = "data/paper"                # an existing dataset; or a [simulate] table:
+///   [simulate]
+///   preset = "paper"                   # small | paper
+///   seed = 0
+///   [train]
+///   zones = "50"                       # a number, or "expert" / "expert:N"
+///   schedule = "fast"                  # fast | paper
+///   epochs = 0                         # 0 = the schedule's
+///   seed = 0
+///   [map]
+///   images_per_zone = 8
+///   threshold = 200.0
+///   [localize]
+///   live = false
+///   candidate_zones = 3
+///   neighbours = 1
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Experiment file (TOML).
+    #[arg(long, value_name = "TOML")]
+    config: PathBuf,
+    /// Replace an existing output folder.
+    #[arg(long)]
+    force: bool,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Experiment {
+    out: PathBuf,
+    data: Option<PathBuf>,
+    simulate: Option<SimulateStage>,
+    #[serde(default)]
+    train: TrainStage,
+    #[serde(default)]
+    map: MapStage,
+    #[serde(default)]
+    localize: LocalizeStage,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct SimulateStage {
+    preset: String,
+    seed: u64,
+}
+
+impl Default for SimulateStage {
+    fn default() -> Self {
+        SimulateStage {
+            preset: "small".into(),
+            seed: 0,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct TrainStage {
+    zones: String,
+    schedule: String,
+    epochs: usize,
+    seed: u64,
+}
+
+impl Default for TrainStage {
+    fn default() -> Self {
+        TrainStage {
+            zones: "50".into(),
+            schedule: "fast".into(),
+            epochs: 0,
+            seed: 0,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct MapStage {
+    images_per_zone: usize,
+    threshold: f64,
+}
+
+impl Default for MapStage {
+    fn default() -> Self {
+        MapStage {
+            images_per_zone: 8,
+            threshold: 200.0,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct LocalizeStage {
+    live: bool,
+    candidate_zones: usize,
+    neighbours: usize,
+}
+
+impl Default for LocalizeStage {
+    fn default() -> Self {
+        LocalizeStage {
+            live: false,
+            candidate_zones: 3,
+            neighbours: 1,
+        }
+    }
+}
+
+/// Runs `endoloc run`.
+pub fn run(args: Args) -> Result<()> {
+    let text = std::fs::read_to_string(&args.config)
+        .with_context(|| format!("reading {}", args.config.display()))?;
+    let exp: Experiment =
+        toml::from_str(&text).with_context(|| format!("parsing {}", args.config.display()))?;
+    if exp.data.is_some() == exp.simulate.is_some() {
+        bail!(
+            "{}: give exactly one of `data = \"DATASET\"` or a [simulate] table",
+            args.config.display()
+        );
+    }
+    if exp.out.exists() && !args.force {
+        bail!(
+            "{} exists; pass --force to replace its results",
+            exp.out.display()
+        );
+    }
+    std::fs::create_dir_all(&exp.out)?;
+    std::fs::write(exp.out.join("experiment.toml"), &text)?;
+    let p = |rel: &str| exp.out.join(rel).display().to_string();
+    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<String>>();
+    let force: &[&str] = if args.force { &["--force"] } else { &[] };
+
+    let data: PathBuf = match (&exp.data, &exp.simulate) {
+        (Some(d), _) => d.clone(),
+        (None, Some(sim)) => {
+            let mut argv = s(&[
+                "simulate",
+                "--preset",
+                &sim.preset,
+                "--seed",
+                &sim.seed.to_string(),
+                "--out",
+                &p("data"),
+            ]);
+            argv.extend(s(force));
+            stage("simulate", &argv);
+            cmd::simulate::run(parse(&argv)?)?;
+            exp.out.join("data")
+        }
+        (None, None) => unreachable!("checked above"),
+    };
+    let data_s = data.display().to_string();
+
+    let mut train = s(&[
+        "train",
+        "--data",
+        &data_s,
+        "--zones",
+        &exp.train.zones,
+        "--out",
+        &p("model"),
+        "--schedule",
+        &exp.train.schedule,
+        "--seed",
+        &exp.train.seed.to_string(),
+    ]);
+    if exp.train.epochs > 0 {
+        train.extend(s(&["--epochs", &exp.train.epochs.to_string()]));
+    }
+    train.extend(s(force));
+    stage("train", &train);
+    cmd::train::run(parse(&train)?)?;
+
+    let mut map = s(&[
+        "map",
+        "--model",
+        &p("model"),
+        "--data",
+        &data_s,
+        "--images-per-zone",
+        &exp.map.images_per_zone.to_string(),
+        "--threshold",
+        &exp.map.threshold.to_string(),
+    ]);
+    map.extend(s(force));
+    stage("map", &map);
+    cmd::localize::run_map(parse(&map)?)?;
+
+    let test = Path::new(&data_s).join("test").display().to_string();
+    let mut loc = s(&[
+        "localize",
+        "--model",
+        &p("model"),
+        "--seq",
+        &test,
+        "--out",
+        &p("run"),
+        "--candidate-zones",
+        &exp.localize.candidate_zones.to_string(),
+        "--neighbours",
+        &exp.localize.neighbours.to_string(),
+    ]);
+    if exp.localize.live {
+        loc.push("--live".into());
+    }
+    loc.extend(s(force));
+    stage("localize", &loc);
+    cmd::localize::run_localize(parse(&loc)?)?;
+
+    let gt = Path::new(&test).join("poses.txt").display().to_string();
+    let mut eval = s(&[
+        "eval",
+        "--gt",
+        &gt,
+        "--est",
+        &p("run/trajectory.txt"),
+        "--frames",
+        &p("run/frames.csv"),
+        "--out",
+        &p("run/eval"),
+    ]);
+    eval.extend(s(force));
+    stage("eval", &eval);
+    cmd::eval::run(parse(&eval)?)
+}
