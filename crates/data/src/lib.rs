@@ -9,6 +9,7 @@ pub mod check;
 pub mod dataset;
 pub mod error;
 mod fsutil;
+pub mod import;
 pub mod info;
 pub mod mesh;
 pub mod png_io;
