@@ -87,7 +87,7 @@ fn shape_of(section: Section) -> SectionShape {
 }
 
 /// Scale applied to [`CONTROL_POINTS`]: brings the mid-line to about 1.4 m, an adult colon.
-const BODY_SCALE: f64 = 1.17;
+const BODY_SCALE: f64 = 1.12;
 
 /// Anatomical control points (mm, before [`BODY_SCALE`]) and the section each one starts or continues.
 const CONTROL_POINTS: &[([f64; 3], Section)] = &[
@@ -510,6 +510,19 @@ mod tests {
         assert_eq!(order, Section::ALL.to_vec(), "{ranges:?}");
         for (sec, a, b) in &ranges {
             assert!(b - a >= 20.0, "{sec} only {:.1} mm long", b - a);
+        }
+    }
+
+    #[test]
+    fn every_seed_gives_an_adult_length() {
+        for seed in 0..12 {
+            let colon = build(&ProceduralColonConfig {
+                seed: crate::appearance::splitmix64(seed) >> 1,
+                ..Default::default()
+            })
+            .unwrap();
+            let len = colon.centerline.length_mm();
+            assert!((1300.0..=1500.0).contains(&len), "seed {seed}: {len:.0} mm");
         }
     }
 
