@@ -244,9 +244,15 @@ pub fn build(cfg: &ProceduralColonConfig) -> Result<ColonModel, SimError> {
     );
     let mesh = tube_mesh(&centerline, &profile, cfg);
     let length = centerline.length_mm();
-    let caecum_r = profile.base_radius(length);
+    // The pass ends in the caecum, 60 % of the way from its start to the pole (at least 15 mm
+    // before the pole).
+    let caecum_start = sections
+        .iter()
+        .position(|s| *s == Section::Caecum)
+        .map_or(length - 60.0, |i| i as f64 * step);
+    let end = (caecum_start + 0.6 * (length - caecum_start)).min(length - 15.0);
     Ok(ColonModel {
-        pass_range_mm: (20.0, length - caecum_r - 20.0),
+        pass_range_mm: (20.0, end),
         description: format!(
             "procedural colon (seed {}, {:.0} mm mid-line, {} vertices)",
             cfg.seed,
