@@ -14,7 +14,7 @@
 
 pub mod c3vd;
 // STEP pub mod endoslam;
-// STEP pub mod simcol3d;
+pub mod simcol3d;
 pub mod split;
 
 use crate::dataset::{DatasetMeta, DatasetWriter, SequenceWriter};

@@ -1,0 +1,287 @@
+//! SimCol3D (MICCAI 2022 EndoVis challenge, Unity-rendered colons) import.
+//!
+//! A SimCol3D colon folder (e.g. `SyntheticColon_I/`) holds, per trajectory `S1`, `S2`, …:
+//! - `SavedPosition_S1.txt`: one camera position per line, `tx ty tz`, centimetres, Unity world;
+//! - `SavedRotationQuaternion_S1.txt`: one camera rotation per line, `qx qy qz qw`, Unity world;
+//! - `Frames_S1/FrameBuffer_NNNN.png`: the frames, line `i` of both files is frame `i` (natural
+//!   order of the frame number).
+//!
+//! `SRC` may be the colon folder (choose the trajectory with `sequence` when it holds several)
+//! or a `Frames_S1` folder (the pose files are then looked up next to it and in its parent).
+//!
+//! # From Unity to endoloc's conventions
+//! Unity's world is left-handed with y up; a Unity camera looks along its local +z with local
+//! +y up and +x to the image's right. Let `S = diag(1, −1, 1)` (flip y), `t` the saved position
+//! and `R` the rotation matrix of the saved quaternion (Unity's camera-to-world, acting on
+//! column vectors: `p_world = R p_local + t`, in left-handed coordinates).
+//! - World: `p' = S p` gives right-handed coordinates of the same scene (a change of
+//!   coordinates, not a mirroring of the scene); positions become `t' = 10 · S t` mm.
+//! - Camera: OpenCV's camera axes are Unity's camera axes with y flipped (x right, y *down*,
+//!   z forward; pixel rows grow downwards), i.e. `p_local = S p_cv`.
+//! - Together `p'_world = S R S p_cv + S t`: `R_wc = S R S`, which is the issue's
+//!   `P' = TM · P · TM` with `TM = diag(1, −1, 1, 1)`. The right-hand `S` *is* the camera's
+//!   y-up → y-down flip, so no further axis flip is applied: `S R S diag(1, −1, 1) = S R`
+//!   would have determinant −1 and not be a rotation at all. As a quaternion,
+//!   `(qx, qy, qz, qw) → (−qx, qy, −qz, qw)`.
+//!
+//! The rotation is re-orthonormalized and its quaternion canonicalized (`qw ≥ 0`: SimCol3D's
+//! quaternions flip sign between rows). A camera whose Unity forward is `R e_z` looks along
+//! `S R e_z` in the converted world, whose "up" is `−y`.
+//!
+//! Intrinsics: the `cam.txt` shipped with the data is ambiguous; [`simcol3d_camera`] uses the
+//! commonly used fx = fy = 227.60416, cx = cy = 237.5 for 475×475 images (override it for other
+//! sizes). Time stamps are `i / fps`. Depth maps (`Depth_NNNN.png`) are not imported.
+
+use super::{
+    ImportedFrame, ImportedSequence, list_files, natural_sort, parse_field, unit_quaternion,
+};
+use crate::fsutil::read_text;
+use crate::{DataError, StampedPose};
+use endoloc_geometry::{Camera, Distortion, Pose};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use std::path::{Path, PathBuf};
+
+/// Millimetres per SimCol3D (Unity scene) unit: positions are in centimetres.
+pub const MM_PER_CM: f64 = 10.0;
+
+/// The commonly used SimCol3D pinhole: 475×475, fx = fy = 227.60416, cx = cy = 237.5.
+pub fn simcol3d_camera() -> Camera {
+    Camera {
+        width: 475,
+        height: 475,
+        fx: 227.60416,
+        fy: 227.60416,
+        cx: 237.5,
+        cy: 237.5,
+        distortion: Distortion::None,
+    }
+}
+
+/// Options of [`read_simcol3d`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimCol3dConfig {
+    /// The camera of the images (default [`simcol3d_camera`]).
+    pub camera: Camera,
+    /// Frame rate giving the time stamps `i / fps`, frames per second (default 30).
+    pub fps: f64,
+    /// Trajectory suffix (`S1` for `SavedPosition_S1.txt` and `Frames_S1/`), needed when the
+    /// folder holds several.
+    pub sequence: Option<String>,
+}
+
+impl Default for SimCol3dConfig {
+    fn default() -> Self {
+        SimCol3dConfig {
+            camera: simcol3d_camera(),
+            fps: 30.0,
+            sequence: None,
+        }
+    }
+}
+
+/// Converts a Unity camera pose (left-handed world, y up; camera looking along +z with y up)
+/// into endoloc's `T_wc` (right-handed world `S p`, OpenCV camera axes), translation scaled by
+/// `mm_per_unit`: `R_wc = S R S`, `t_wc = mm_per_unit · S t` with `S = diag(1, −1, 1)`.
+/// See the [module docs](self) for the derivation. The quaternion is canonical (`qw ≥ 0`).
+pub fn pose_from_unity(
+    t_unity: Vector3<f64>,
+    q_unity: UnitQuaternion<f64>,
+    mm_per_unit: f64,
+) -> Pose {
+    let s = Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, 1.0));
+    let r = s * q_unity.to_rotation_matrix().into_inner() * s;
+    let q = super::rotation_from_matrix(&r, 1e-6).unwrap_or_else(|| {
+        UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(
+            q_unity.w, -q_unity.i, q_unity.j, -q_unity.k,
+        ))
+    });
+    super::canonical_pose(s * t_unity * mm_per_unit, q)
+}
+
+/// Reads a text file of `n` whitespace- (or comma-) separated numbers per line; blank lines
+/// skipped. Returns `(line number, values)`.
+pub(crate) fn read_rows<const N: usize>(
+    path: &Path,
+    names: [&str; N],
+) -> Result<Vec<(usize, [f64; N])>, DataError> {
+    let text = read_text(path)?;
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let cols: Vec<&str> = line
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .collect();
+        if cols.is_empty() {
+            continue;
+        }
+        if cols.len() != N {
+            return Err(DataError::parse(
+                path,
+                i + 1,
+                format!(
+                    "expected {N} values ({}); found {}",
+                    names.join(" "),
+                    cols.len()
+                ),
+            ));
+        }
+        let mut v = [0.0; N];
+        for (k, c) in cols.iter().enumerate() {
+            v[k] = parse_field(path, i + 1, &format!("column {} ({})", k + 1, names[k]), c)?;
+        }
+        rows.push((i + 1, v));
+    }
+    Ok(rows)
+}
+
+/// The trajectory suffix from a `SavedPosition_<suffix>.txt` name.
+fn suffix_of(name: &str) -> Option<&str> {
+    name.strip_prefix("SavedPosition_")?.strip_suffix(".txt")
+}
+
+/// Finds `(frames folder, position file, quaternion file)`.
+fn layout(src: &Path, sequence: Option<&str>) -> Result<(PathBuf, PathBuf, PathBuf), DataError> {
+    let has_frames = |d: &Path| -> Result<bool, DataError> {
+        Ok(!list_files(d, |n| n.starts_with("FrameBuffer_") && n.ends_with(".png"))?.is_empty())
+    };
+    let (frames_dir, pose_dirs, wanted) = if has_frames(src)? {
+        let dir_name = src.file_name().map(|n| n.to_string_lossy().into_owned());
+        let from_dir = dir_name
+            .as_deref()
+            .and_then(|n| n.strip_prefix("Frames_"))
+            .map(str::to_string);
+        let parent = src.parent().map(Path::to_path_buf).unwrap_or_default();
+        (
+            Some(src.to_path_buf()),
+            vec![src.to_path_buf(), parent],
+            sequence.map(str::to_string).or(from_dir),
+        )
+    } else {
+        (None, vec![src.to_path_buf()], sequence.map(str::to_string))
+    };
+    let suffix = match wanted {
+        Some(s) => s,
+        None => {
+            let mut found: Vec<String> = Vec::new();
+            for d in &pose_dirs {
+                if d.as_os_str().is_empty() || !d.is_dir() {
+                    continue;
+                }
+                for f in list_files(d, |n| suffix_of(n).is_some())? {
+                    if let Some(s) = f.file_name().and_then(|n| n.to_str()).and_then(suffix_of) {
+                        found.push(s.to_string());
+                    }
+                }
+            }
+            found.sort();
+            found.dedup();
+            match found.as_slice() {
+                [one] => one.clone(),
+                [] => {
+                    return Err(DataError::invalid(
+                        src,
+                        "no SavedPosition_*.txt here; expected a SimCol3D colon folder or a Frames_* folder next to its pose files",
+                    ));
+                }
+                many => {
+                    return Err(DataError::invalid(
+                        src,
+                        format!(
+                            "several trajectories ({}); choose one (e.g. --sequence {})",
+                            many.join(", "),
+                            many[0]
+                        ),
+                    ));
+                }
+            }
+        }
+    };
+    let pos_name = format!("SavedPosition_{suffix}.txt");
+    let rot_name = format!("SavedRotationQuaternion_{suffix}.txt");
+    let pose_dir = pose_dirs
+        .iter()
+        .find(|d| d.join(&pos_name).is_file())
+        .ok_or_else(|| {
+            DataError::invalid(
+                src,
+                format!("{pos_name} not found here or in the parent folder"),
+            )
+        })?;
+    let frames_dir = frames_dir.unwrap_or_else(|| src.join(format!("Frames_{suffix}")));
+    Ok((frames_dir, pose_dir.join(pos_name), pose_dir.join(rot_name)))
+}
+
+/// Reads one SimCol3D trajectory (see the [module docs](self)) with poses converted to
+/// endoloc's conventions.
+///
+/// # Errors
+/// [`DataError::Invalid`] when the files cannot be found, for a bad `fps`, or when the
+/// position, quaternion and frame counts differ; [`DataError::Parse`] naming the file and
+/// line for a wrong column count, a value that is not a finite number, or a quaternion whose
+/// norm is not 1; [`DataError::Io`].
+pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequence, DataError> {
+    if !(config.fps.is_finite() && config.fps > 0.0) {
+        return Err(DataError::invalid(
+            src,
+            format!("fps = {}; expected a positive number", config.fps),
+        ));
+    }
+    let (frames_dir, pos_path, rot_path) = layout(src, config.sequence.as_deref())?;
+    let positions = read_rows(&pos_path, ["tx", "ty", "tz"])?;
+    let rotations = read_rows(&rot_path, ["qx", "qy", "qz", "qw"])?;
+    if positions.len() != rotations.len() {
+        return Err(DataError::invalid(
+            &rot_path,
+            format!(
+                "{} quaternions but {} positions in {}; expected one per frame",
+                rotations.len(),
+                positions.len(),
+                pos_path.display()
+            ),
+        ));
+    }
+    let images = natural_sort(
+        &frames_dir,
+        list_files(&frames_dir, |n| {
+            n.starts_with("FrameBuffer_") && n.ends_with(".png")
+        })?,
+    )?;
+    if images.len() != positions.len() {
+        return Err(DataError::invalid(
+            &pos_path,
+            format!(
+                "{} poses but {} FrameBuffer_*.png images in {}; expected one pose line per frame",
+                positions.len(),
+                images.len(),
+                frames_dir.display()
+            ),
+        ));
+    }
+    let mut frames = Vec::with_capacity(images.len());
+    for (i, ((_, image), ((_, t), (line, q)))) in images
+        .into_iter()
+        .zip(positions.iter().zip(&rotations))
+        .enumerate()
+    {
+        let q = unit_quaternion(&rot_path, *line, *q)?;
+        frames.push(ImportedFrame {
+            image,
+            depth: None,
+            pose: StampedPose {
+                timestamp_s: i as f64 / config.fps,
+                pose: pose_from_unity(Vector3::new(t[0], t[1], t[2]), q, MM_PER_CM),
+            },
+        });
+    }
+    Ok(ImportedSequence {
+        source: frames_dir,
+        frames,
+        depth_encoding: None,
+        camera: config.camera,
+        notes: vec![format!(
+            "poses from {} and {} (Unity, cm) converted with R = S R S, t = 10 S t, S = diag(1,-1,1)",
+            pos_path.display(),
+            rot_path.display()
+        )],
+    })
+}
