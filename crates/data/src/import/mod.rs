@@ -13,7 +13,7 @@
 //! asked to.
 
 pub mod c3vd;
-// STEP pub mod endoslam;
+pub mod endoslam;
 pub mod simcol3d;
 pub mod split;
 

@@ -1,0 +1,389 @@
+//! EndoSLAM import: the UnityCam synthetic recordings and the ex-vivo recordings.
+//!
+//! Both kinds are recognised from the pose file's header:
+//! - **UnityCam** (`Poses/*.csv`, header `tX,tY,tZ,rX,rY,rZ,rW,time(s)`): one pose per row,
+//!   paired with the frames by row (frames in natural order of their number). Unity's
+//!   left-handed, y-up world and y-up camera are converted exactly as for SimCol3D
+//!   ([`pose_from_unity`]: `R_wc = S R S`, `t = units · S t`, `S = diag(1, −1, 1)`); the time
+//!   stamps are the `time(s)` column.
+//! - **ex-vivo** (`.xlsx` sheets with columns `ImageFrame, Pose_Index, trans_x, trans_y,
+//!   trans_z, quot_x, quot_y, quot_z, quot_w`): poses joined to the frames on `ImageFrame` (a
+//!   frame number, or a file name/stem); frames without a pose are skipped (and counted in
+//!   the notes). The `.xlsx` workbook itself is not read: export the sheet to CSV (e.g.
+//!   `libreoffice --headless --convert-to csv poses.xlsx`) and give the `.csv`. These poses are
+//!   taken as camera-to-world in a right-handed frame with OpenCV camera axes (not documented
+//!   by EndoSLAM: check a few frames visually); time stamps are the frame number / fps.
+//!
+//! Neither kind documents its length unit, so [`EndoSlamConfig::units`] is required, and so
+//! is the camera (EndoSLAM's cameras differ per recording).
+//!
+//! Columns are found by their header names (surrounding spaces and case ignored), so column
+//! order does not matter.
+
+use super::simcol3d::pose_from_unity;
+use super::{
+    ImportedFrame, ImportedSequence, list_files, natural_sort, parse_field, unit_quaternion,
+};
+use crate::fsutil::read_text;
+use crate::{DataError, StampedPose};
+use endoloc_geometry::Camera;
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A length unit of a source whose unit is not documented.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Units {
+    /// Millimetres.
+    Mm,
+    /// Centimetres.
+    Cm,
+    /// Metres.
+    M,
+}
+
+impl Units {
+    /// Millimetres per unit.
+    pub fn mm_per_unit(self) -> f64 {
+        match self {
+            Units::Mm => 1.0,
+            Units::Cm => 10.0,
+            Units::M => 1000.0,
+        }
+    }
+}
+
+/// Options of [`read_endoslam`]; no defaults for the camera and units (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EndoSlamConfig {
+    /// The camera of the images (size must match the images).
+    pub camera: Camera,
+    /// Length unit of the pose file.
+    pub units: Units,
+    /// The pose file; default: the only `.csv` in `SRC/Poses/`, else in `SRC`.
+    pub poses: Option<PathBuf>,
+    /// The frames folder; default `SRC/Frames` when it exists, else `SRC`.
+    pub frames: Option<PathBuf>,
+    /// Frame rate for ex-vivo time stamps (frame number / fps), frames per second.
+    pub fps: f64,
+}
+
+impl EndoSlamConfig {
+    /// A config with the given camera and units, default file discovery and 30 fps.
+    pub fn new(camera: Camera, units: Units) -> Self {
+        EndoSlamConfig {
+            camera,
+            units,
+            poses: None,
+            frames: None,
+            fps: 30.0,
+        }
+    }
+}
+
+const IMAGE_EXTENSIONS: [&str; 6] = ["png", "jpg", "jpeg", "bmp", "tif", "tiff"];
+
+fn is_image(name: &str) -> bool {
+    name.rsplit_once('.')
+        .is_some_and(|(_, e)| IMAGE_EXTENSIONS.iter().any(|x| x.eq_ignore_ascii_case(e)))
+}
+
+fn find_pose_file(src: &Path) -> Result<PathBuf, DataError> {
+    for dir in [src.join("Poses"), src.to_path_buf()] {
+        if !dir.is_dir() {
+            continue;
+        }
+        let mut files = list_files(&dir, |n| {
+            let l = n.to_ascii_lowercase();
+            l.ends_with(".csv") || l.ends_with(".xlsx")
+        })?;
+        files.sort();
+        match files.as_slice() {
+            [] => continue,
+            [one] => return Ok(one.clone()),
+            many => {
+                return Err(DataError::invalid(
+                    &dir,
+                    format!(
+                        "{} pose files ({}); choose one with --poses",
+                        many.len(),
+                        many.iter()
+                            .filter_map(|p| p.file_name())
+                            .map(|n| n.to_string_lossy().into_owned())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                ));
+            }
+        }
+    }
+    Err(DataError::invalid(
+        src,
+        "no pose file (.csv) in Poses/ or here; give one with --poses",
+    ))
+}
+
+/// A CSV table: header names (lower case, trimmed) and rows `(line, cells)`.
+struct Table {
+    header: Vec<String>,
+    rows: Vec<(usize, Vec<String>)>,
+}
+
+impl Table {
+    fn read(path: &Path) -> Result<Self, DataError> {
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("xlsx"))
+        {
+            return Err(DataError::invalid(
+                path,
+                "cannot read .xlsx workbooks; export the sheet to CSV (e.g. `libreoffice --headless --convert-to csv FILE.xlsx`) and give the .csv",
+            ));
+        }
+        let text = read_text(path)?;
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty());
+        let Some((_, head)) = lines.next() else {
+            return Err(DataError::parse(
+                path,
+                1,
+                "empty file; expected a header row",
+            ));
+        };
+        let split = |l: &str| -> Vec<String> {
+            l.split([',', ';', '\t'])
+                .map(|c| c.trim().trim_matches('"').trim().to_string())
+                .collect()
+        };
+        let header = split(head.trim_start_matches('\u{feff}'))
+            .into_iter()
+            .map(|h| h.to_ascii_lowercase())
+            .collect::<Vec<_>>();
+        let mut rows = Vec::new();
+        for (i, l) in lines {
+            let cells = split(l);
+            if cells.len() != header.len() {
+                return Err(DataError::parse(
+                    path,
+                    i + 1,
+                    format!(
+                        "{} columns; expected {} like the header ({})",
+                        cells.len(),
+                        header.len(),
+                        header.join(",")
+                    ),
+                ));
+            }
+            rows.push((i + 1, cells));
+        }
+        Ok(Table { header, rows })
+    }
+
+    /// Column indices of `names` (lower case), or an error listing what is missing.
+    fn columns<const N: usize>(
+        &self,
+        path: &Path,
+        names: [&str; N],
+    ) -> Result<[usize; N], DataError> {
+        let mut idx = [0; N];
+        for (k, n) in names.iter().enumerate() {
+            idx[k] = self.header.iter().position(|h| h == n).ok_or_else(|| {
+                DataError::parse(
+                    path,
+                    1,
+                    format!(
+                        "header has no column {n:?}; expected columns {} (found {})",
+                        names.join(","),
+                        self.header.join(",")
+                    ),
+                )
+            })?;
+        }
+        Ok(idx)
+    }
+
+    fn number(
+        &self,
+        path: &Path,
+        line: usize,
+        cells: &[String],
+        col: usize,
+    ) -> Result<f64, DataError> {
+        let name = self.header.get(col).map_or("?", String::as_str);
+        parse_field(
+            path,
+            line,
+            &format!("column {} ({name})", col + 1),
+            cells.get(col).map_or("", String::as_str),
+        )
+    }
+}
+
+const UNITY_COLUMNS: [&str; 8] = ["tx", "ty", "tz", "rx", "ry", "rz", "rw", "time(s)"];
+const EX_VIVO_COLUMNS: [&str; 8] = [
+    "imageframe",
+    "trans_x",
+    "trans_y",
+    "trans_z",
+    "quot_x",
+    "quot_y",
+    "quot_z",
+    "quot_w",
+];
+
+/// Reads one EndoSLAM recording (see the [module docs](self)).
+///
+/// # Errors
+/// [`DataError::Invalid`] for missing files, an `.xlsx` pose file, a pose/frame count mismatch
+/// (UnityCam), poses naming no frame or no match at all (ex-vivo); [`DataError::Parse`] naming
+/// the file and line for a wrong column count, a missing header column, a value that is not a
+/// finite number, a non-unit quaternion or a duplicate `ImageFrame`; [`DataError::Io`].
+pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequence, DataError> {
+    if !(config.fps.is_finite() && config.fps > 0.0) {
+        return Err(DataError::invalid(
+            src,
+            format!("fps = {}; expected a positive number", config.fps),
+        ));
+    }
+    let pose_path = match &config.poses {
+        Some(p) => p.clone(),
+        None => find_pose_file(src)?,
+    };
+    let frames_dir = config.frames.clone().unwrap_or_else(|| {
+        let f = src.join("Frames");
+        if f.is_dir() { f } else { src.to_path_buf() }
+    });
+    let table = Table::read(&pose_path)?;
+    let images = natural_sort(&frames_dir, list_files(&frames_dir, is_image)?)?;
+    if images.is_empty() {
+        return Err(DataError::invalid(
+            &frames_dir,
+            "no images (png, jpg, bmp, tif) here",
+        ));
+    }
+    let scale = config.units.mm_per_unit();
+    let mut notes = Vec::new();
+    let frames = if table.header.iter().any(|h| h == "imageframe") {
+        let c = table.columns(&pose_path, EX_VIVO_COLUMNS)?;
+        // key → (line, pose) for every row.
+        let mut by_key: BTreeMap<String, (usize, endoloc_geometry::Pose)> = BTreeMap::new();
+        for (line, cells) in &table.rows {
+            let v: Vec<f64> = c[1..]
+                .iter()
+                .map(|&k| table.number(&pose_path, *line, cells, k))
+                .collect::<Result<_, _>>()?;
+            let q = unit_quaternion(&pose_path, *line, [v[3], v[4], v[5], v[6]])?;
+            let pose = super::canonical_pose(Vector3::new(v[0], v[1], v[2]) * scale, q);
+            let raw = cells.get(c[0]).map_or("", String::as_str);
+            let key = frame_key(raw);
+            if let Some((first, _)) = by_key.insert(key, (*line, pose)) {
+                return Err(DataError::parse(
+                    &pose_path,
+                    *line,
+                    format!(
+                        "ImageFrame {raw:?} already has a pose on line {first}; expected one row per frame"
+                    ),
+                ));
+            }
+        }
+        let mut frames = Vec::new();
+        let mut used = 0usize;
+        for (n, img) in &images {
+            let stem = img
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let name = img
+                .file_name()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let hit = [n.to_string(), stem, name]
+                .into_iter()
+                .find_map(|k| by_key.get(&k));
+            if let Some((_, pose)) = hit {
+                used += 1;
+                frames.push(ImportedFrame {
+                    image: img.clone(),
+                    depth: None,
+                    pose: StampedPose {
+                        timestamp_s: *n as f64 / config.fps,
+                        pose: *pose,
+                    },
+                });
+            }
+        }
+        if frames.is_empty() {
+            return Err(DataError::invalid(
+                &pose_path,
+                format!(
+                    "no ImageFrame matches an image in {}; expected frame numbers or file names of its images",
+                    frames_dir.display()
+                ),
+            ));
+        }
+        if used < images.len() {
+            notes.push(format!(
+                "{} frames without a pose skipped",
+                images.len() - used
+            ));
+        }
+        if used < by_key.len() {
+            notes.push(format!(
+                "{} pose rows name no image and were ignored",
+                by_key.len() - used
+            ));
+        }
+        frames
+    } else {
+        let c = table.columns(&pose_path, UNITY_COLUMNS)?;
+        if table.rows.len() != images.len() {
+            return Err(DataError::invalid(
+                &pose_path,
+                format!(
+                    "{} pose rows but {} images in {}; expected one row per frame",
+                    table.rows.len(),
+                    images.len(),
+                    frames_dir.display()
+                ),
+            ));
+        }
+        let mut frames = Vec::with_capacity(images.len());
+        for ((line, cells), (_, img)) in table.rows.iter().zip(images) {
+            let v: Vec<f64> = c
+                .iter()
+                .map(|&k| table.number(&pose_path, *line, cells, k))
+                .collect::<Result<_, _>>()?;
+            let q = unit_quaternion(&pose_path, *line, [v[3], v[4], v[5], v[6]])?;
+            frames.push(ImportedFrame {
+                image: img,
+                depth: None,
+                pose: StampedPose {
+                    timestamp_s: v[7],
+                    pose: pose_from_unity(Vector3::new(v[0], v[1], v[2]), q, scale),
+                },
+            });
+        }
+        frames
+    };
+    Ok(ImportedSequence {
+        source: src.to_path_buf(),
+        frames,
+        depth_encoding: None,
+        camera: config.camera,
+        notes,
+    })
+}
+
+/// Join key of an `ImageFrame` cell: an integer-valued number as its decimal digits
+/// (`"12"`, `"12.0"`, `"0012"` → `"12"`), anything else as written.
+fn frame_key(raw: &str) -> String {
+    let t = raw.trim();
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 && v.fract() == 0.0 && v < 1e15 => {
+            format!("{}", v as u64)
+        }
+        _ => t.to_string(),
+    }
+}
