@@ -305,33 +305,27 @@ impl Localizer {
         times.surf_ms = ms(t);
         let mut first: Option<FrameResult> = None;
         let mut spent = StageTimes::default();
-        for zone in order {
-            let score = pred.zone_scores.get(zone).copied().unwrap_or(f32::NAN);
-            let r = self.register(&features, zone, score, times)?;
-            spent.matching_ms += r.times.matching_ms;
-            spent.refine_ms += r.times.refine_ms;
-            if r.status == Status::Refined {
-                return Ok(FrameResult {
-                    times: StageTimes {
-                        matching_ms: spent.matching_ms,
-                        refine_ms: spent.refine_ms,
-                        ..times
-                    },
-                    ..r
-                });
-            }
-            first.get_or_insert(r);
-        }
-        // No zone registered: report the chosen zone's verdict (its median pose, or rejected).
-        let r = first.ok_or_else(|| LocalizeError::Config("no candidate zone".into()))?;
-        Ok(FrameResult {
+        let with_times = |r: FrameResult, spent: &StageTimes| FrameResult {
             times: StageTimes {
                 matching_ms: spent.matching_ms,
                 refine_ms: spent.refine_ms,
                 ..times
             },
             ..r
-        })
+        };
+        for zone in order {
+            let score = pred.zone_scores.get(zone).copied().unwrap_or(f32::NAN);
+            let r = self.register(&features, zone, score, times)?;
+            spent.matching_ms += r.times.matching_ms;
+            spent.refine_ms += r.times.refine_ms;
+            if r.status == Status::Refined {
+                return Ok(with_times(r, &spent));
+            }
+            first.get_or_insert(r);
+        }
+        // No zone registered: report the chosen zone's verdict (its median pose, or rejected).
+        let r = first.ok_or_else(|| LocalizeError::Config("no candidate zone".into()))?;
+        Ok(with_times(r, &spent))
     }
 }
 

@@ -209,27 +209,8 @@ impl MucosaAtlas {
     }
 
     /// Bilinear lookup of albedo (linear, 0..1) and height (0..1) at arc length `s` (mm) and
-    /// angle `theta` (rad, any value: wrapped).
-    #[inline]
-    pub fn sample(&self, s: f32, theta: f32) -> [f32; 4] {
-        let (i00, i01, i10, i11, fu, fv) = self.corners(s, theta);
-        let (t00, t01, t10, t11) = (
-            self.texels[i00],
-            self.texels[i01],
-            self.texels[i10],
-            self.texels[i11],
-        );
-        let mut out = [0f32; 4];
-        for k in 0..4 {
-            let a = t00[k] as f32 + (t01[k] as f32 - t00[k] as f32) * fv;
-            let b = t10[k] as f32 + (t11[k] as f32 - t10[k] as f32) * fv;
-            out[k] = (a + (b - a) * fu) * (1.0 / 255.0);
-        }
-        out
-    }
-
-    /// Like [`MucosaAtlas::sample`], plus the gradient of the height: `(∂h/∂s per mm,
-    /// ∂h/∂θ per radian)`, from the same four texels (the bilinear patch's derivatives).
+    /// angle `theta` (rad, any value: wrapped), with the gradient of the height `(∂h/∂s per mm,
+    /// ∂h/∂θ per radian)` from the same four texels (the bilinear patch's derivatives).
     #[inline]
     pub fn sample_with_gradient(&self, s: f32, theta: f32) -> ([f32; 4], f32, f32) {
         let (i00, i01, i10, i11, fu, fv) = self.corners(s, theta);
