@@ -16,8 +16,12 @@ use serde::{Deserialize, Serialize};
 pub struct AugmentConfig {
     /// Apply augmentation at all.
     pub enabled: bool,
-    /// Rotation about the image centre, uniform in `±rotation_deg` degrees.
+    /// Rotation about the image centre, uniform in `±rotation_deg` degrees (the scope's roll).
     pub rotation_deg: f32,
+    /// Zoom uniform in `1 ± scale` (distance to the wall).
+    pub scale: f32,
+    /// Shift uniform in `±translate` of the image size, each axis (lateral offset, gaze).
+    pub translate: f32,
     /// Gain uniform in `1 ± brightness`, then clipped to `[0, 1]`.
     pub brightness: f32,
     /// Contrast about the mean uniform in `1 ± contrast`, then clipped.
@@ -40,7 +44,9 @@ impl Default for AugmentConfig {
     fn default() -> Self {
         AugmentConfig {
             enabled: true,
-            rotation_deg: 15.0,
+            rotation_deg: 45.0,
+            scale: 0.15,
+            translate: 0.08,
             brightness: 0.3,
             contrast: 0.3,
             gamma: 1.3,
@@ -74,11 +80,14 @@ pub fn augment<R: Rng>(
     if !cfg.enabled || w == 0 || h == 0 {
         return px.to_vec();
     }
-    let mut out = if cfg.rotation_deg > 0.0 {
+    let mut out = if cfg.rotation_deg > 0.0 || cfg.scale > 0.0 || cfg.translate > 0.0 {
         let a = rng
             .random_range(-cfg.rotation_deg..=cfg.rotation_deg)
             .to_radians();
-        rotate(px, w, h, a)
+        let s = 1.0 + rng.random_range(-cfg.scale..=cfg.scale);
+        let tx = rng.random_range(-cfg.translate..=cfg.translate) * w as f32;
+        let ty = rng.random_range(-cfg.translate..=cfg.translate) * h as f32;
+        warp(px, w, h, a, s, tx, ty)
     } else {
         px.to_vec()
     };
@@ -120,13 +129,21 @@ pub fn augment<R: Rng>(
 }
 
 /// Bilinear rotation by `angle` radians about the image centre, borders replicated.
+#[cfg(test)]
 fn rotate(px: &[f32], w: usize, h: usize, angle: f32) -> Vec<f32> {
+    warp(px, w, h, angle, 1.0, 0.0, 0.0)
+}
+
+/// Bilinear similarity warp: rotation by `angle` radians and zoom by `scale` about the image
+/// centre, then a shift by `(tx, ty)` pixels; borders replicated.
+fn warp(px: &[f32], w: usize, h: usize, angle: f32, scale: f32, tx: f32, ty: f32) -> Vec<f32> {
     let (s, c) = angle.sin_cos();
+    let inv = 1.0 / scale.max(1e-3);
     let (cx, cy) = ((w as f32 - 1.0) / 2.0, (h as f32 - 1.0) / 2.0);
     let mut out = vec![0f32; w * h];
     for y in 0..h {
         for x in 0..w {
-            let (dx, dy) = (x as f32 - cx, y as f32 - cy);
+            let (dx, dy) = ((x as f32 - cx - tx) * inv, (y as f32 - cy - ty) * inv);
             let sx = (c * dx + s * dy + cx).clamp(0.0, (w - 1) as f32);
             let sy = (-s * dx + c * dy + cy).clamp(0.0, (h - 1) as f32);
             let (x0, y0) = (sx.floor() as usize, sy.floor() as usize);

@@ -44,10 +44,7 @@ fn draw(path: &Path, history: &[EpochRecord]) -> Result<(), Box<dyn std::error::
         &BLUE,
     ))?;
     let mut acc = ChartBuilder::on(&bottom)
-        .caption(
-            "validation zone accuracy (held-out training frames)",
-            ("sans-serif", 18),
-        )
+        .caption("validation zone accuracy", ("sans-serif", 18))
         .margin(12)
         .x_label_area_size(36)
         .y_label_area_size(60)

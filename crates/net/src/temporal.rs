@@ -37,7 +37,7 @@ impl Default for TemporalConfig {
             stay: 0.95,
             step1: 0.02,
             step2: 0.003,
-            temperature: 0.05,
+            temperature: 0.25,
         }
     }
 }

@@ -132,6 +132,12 @@ pub struct ValidationConfig {
     pub every_epochs: usize,
     /// At most this many database frames (evenly spaced) during validation, for speed.
     pub max_database_frames: usize,
+    /// Validate on this other sequence (a folder with images/ and poses.txt, e.g. a second
+    /// pass through the same colon) instead of held-out training frames; truth zones come from
+    /// its poses ([`ZoneTable::truth_zone`]). For monitoring only: nothing is selected by it.
+    pub sequence: Option<PathBuf>,
+    /// At most this many frames of `sequence` (evenly spaced).
+    pub max_queries: usize,
 }
 
 impl Default for ValidationConfig {
@@ -140,6 +146,8 @@ impl Default for ValidationConfig {
             holdout_every: 10,
             every_epochs: 25,
             max_database_frames: 1200,
+            sequence: None,
+            max_queries: 400,
         }
     }
 }
@@ -404,6 +412,55 @@ pub(crate) fn forward_values(
         .unwrap_or_default()
 }
 
+/// Validation frames from another sequence: resized images and their truth zones.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValidationSet {
+    /// The images, resized to the network input.
+    pub images: ImageCache,
+    /// Truth zone of each image.
+    pub truth: Vec<usize>,
+}
+
+impl ValidationSet {
+    /// Loads up to `max` evenly spaced frames of `seq` with truth zones from their poses.
+    ///
+    /// # Errors
+    /// [`NetError::Data`] for unreadable images.
+    pub fn from_sequence(
+        seq: &Sequence,
+        zones: &ZoneTable,
+        train_poses: &[endoloc_geometry::Pose],
+        size: InputSize,
+        max: usize,
+    ) -> Result<Self, NetError> {
+        let n = seq.len();
+        let m = max.max(1).min(n);
+        let frames: Vec<usize> = (0..m).map(|i| i * n / m).collect();
+        let imgs: Result<Vec<Vec<f32>>, NetError> = frames
+            .par_iter()
+            .map(|&i| {
+                let g = seq.load_gray(i)?;
+                Ok(resize_area(
+                    g.as_raw(),
+                    g.width() as usize,
+                    g.height() as usize,
+                    size,
+                ))
+            })
+            .collect();
+        let poses: Vec<_> = frames.iter().map(|&i| seq.poses[i].pose).collect();
+        let truth = zones
+            .truth_zones(train_poses, &poses)
+            .into_iter()
+            .map(|t| t.unwrap_or(0))
+            .collect();
+        Ok(ValidationSet {
+            images: ImageCache::from_images(size, imgs?),
+            truth,
+        })
+    }
+}
+
 /// Saved training state between runs (`checkpoint/state.json`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 struct CheckpointState {
@@ -444,6 +501,7 @@ pub fn fit(
     cfg: &TrainConfig,
     cache: &ImageCache,
     zones: &ZoneTable,
+    validation: Option<&ValidationSet>,
     checkpoint_dir: Option<&Path>,
     resume: bool,
     progress: &mut dyn FnMut(&TrainProgress),
@@ -466,7 +524,11 @@ pub fn fit(
     let base = crate::device::from_name(&cfg.device)?;
     let device = base.clone().autodiff();
     let n = zones.frame_count();
-    let holdout = cfg.validation.holdout_every;
+    let holdout = if validation.is_some() {
+        0
+    } else {
+        cfg.validation.holdout_every
+    };
     let is_held = |f: usize| holdout > 1 && f % holdout == holdout / 2;
     let mut zone_frames: Vec<Vec<usize>> = vec![Vec::new(); zones.len()];
     for f in 0..n {
@@ -479,7 +541,14 @@ pub fn fit(
         cfg.hard_negative_fraction,
         cfg.hard_negative_reach,
     )?;
-    let val_queries: Vec<usize> = (0..n).filter(|&f| is_held(f)).collect();
+    // Validation queries: (image cache, frames in it, truth zones).
+    let held: Vec<usize> = (0..n).filter(|&f| is_held(f)).collect();
+    let held_truth: Vec<usize> = held.iter().map(|&f| zones.zone_of_frame[f]).collect();
+    let ext_frames: Vec<usize> = validation.map_or(Vec::new(), |v| (0..v.images.len()).collect());
+    let (val_cache, val_queries, val_truth): (&ImageCache, &[usize], &[usize]) = match validation {
+        Some(v) => (&v.images, &ext_frames, &v.truth),
+        None => (cache, &held, &held_truth),
+    };
     let val_db: Vec<usize> = {
         let pool: Vec<usize> = (0..n).filter(|&f| !is_held(f)).collect();
         let m = cfg.validation.max_database_frames.max(1);
@@ -635,7 +704,7 @@ pub fn fit(
                 cache,
                 zones,
                 &val_db,
-                &val_queries,
+                (val_cache, val_queries, val_truth),
                 cfg,
             )?;
             last_val = Some(a);
@@ -725,9 +794,10 @@ fn validation_accuracy(
     cache: &ImageCache,
     zones: &ZoneTable,
     db_frames: &[usize],
-    queries: &[usize],
+    queries: (&ImageCache, &[usize], &[usize]),
     cfg: &TrainConfig,
 ) -> Result<(f32, f32), NetError> {
+    let (qcache, queries, truth) = queries;
     let dim = cfg.backbone.descriptor_dim();
     let d = describe_cached(
         net,
@@ -747,16 +817,15 @@ fn validation_accuracy(
     let q = describe_cached(
         net,
         device,
-        cache,
+        qcache,
         queries,
         cfg.inference_batch,
         &mut |_| {},
     );
     let mut exact = 0;
     let mut near = 0;
-    for (i, &f) in queries.iter().enumerate() {
+    for (i, &truth) in truth.iter().enumerate().take(queries.len()) {
         let p = db.lookup(&q[i * dim..(i + 1) * dim], cfg.score)?;
-        let truth = zones.zone_of_frame[f];
         exact += usize::from(p.zone == truth);
         near += usize::from(p.zone.abs_diff(truth) <= 1);
     }
@@ -853,7 +922,29 @@ pub fn train(
     })?;
     let load_s = t_load.elapsed().as_secs_f64();
 
-    let fitted = fit(cfg, &cache, zones, Some(&ckpt), target.resume, progress)?;
+    let val_set = match &cfg.validation.sequence {
+        Some(p) => {
+            let vseq = Sequence::open(p)?;
+            let train_poses: Vec<_> = seq.poses.iter().map(|p| p.pose).collect();
+            Some(ValidationSet::from_sequence(
+                &vseq,
+                zones,
+                &train_poses,
+                size,
+                cfg.validation.max_queries,
+            )?)
+        }
+        None => None,
+    };
+    let fitted = fit(
+        cfg,
+        &cache,
+        zones,
+        val_set.as_ref(),
+        Some(&ckpt),
+        target.resume,
+        progress,
+    )?;
 
     let t_desc = Instant::now();
     let base = crate::device::from_name(&cfg.device)?;

@@ -78,6 +78,7 @@ fn tiny_config(epochs: usize) -> TrainConfig {
             holdout_every: 4,
             every_epochs: epochs,
             max_database_frames: 100,
+            ..ValidationConfig::default()
         },
         checkpoint_every_epochs: 1,
         seed: 7,
@@ -105,7 +106,7 @@ fn loss_falls_on_a_tiny_separable_task_and_resume_continues() {
     let zones = zones_of(&seq);
     let cfg = tiny_config(30);
     let cache = ImageCache::from_sequence(&seq, cfg.backbone.input(), &mut |_| {}).unwrap();
-    let fitted = fit(&cfg, &cache, &zones, None, false, &mut |_| {}).unwrap();
+    let fitted = fit(&cfg, &cache, &zones, None, None, false, &mut |_| {}).unwrap();
     let h = &fitted.history;
     assert_eq!(h.len(), 30);
     let first: f32 = h[..3].iter().map(|r| r.loss).sum::<f32>() / 3.0;
@@ -120,6 +121,7 @@ fn loss_falls_on_a_tiny_separable_task_and_resume_continues() {
         &tiny_config(2),
         &cache,
         &zones,
+        None,
         Some(&ckpt),
         false,
         &mut |_| {},
@@ -130,6 +132,7 @@ fn loss_falls_on_a_tiny_separable_task_and_resume_continues() {
         &tiny_config(4),
         &cache,
         &zones,
+        None,
         Some(&ckpt),
         true,
         &mut |_| {},

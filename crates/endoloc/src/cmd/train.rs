@@ -97,6 +97,11 @@ pub struct Args {
     #[arg(long, default_value = "cpu")]
     device: String,
 
+    /// Monitor validation accuracy on this sequence folder (e.g. a second pass through the
+    /// same colon; truth zones from its poses) instead of held-out training frames.
+    #[arg(long, value_name = "DIR")]
+    val_seq: Option<PathBuf>,
+
     /// Start from these weights: a safetensors file or a PyTorch state dict (.pt/.pth);
     /// GoogLeNet takes torchvision's names (use branch3_kernel = 3 in a --config file for
     /// torchvision's weights).
@@ -159,6 +164,9 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
     }
     cfg.seed = args.seed;
     cfg.device = args.device.clone();
+    if args.val_seq.is_some() {
+        cfg.validation.sequence = args.val_seq.clone();
+    }
     if args.pretrained.is_some() {
         cfg.pretrained = args.pretrained.clone();
     }
@@ -262,9 +270,15 @@ pub fn run(args: Args) -> Result<()> {
         .find(|r| r.val_accuracy.is_some())
     {
         println!(
-            "validation   {:.1} % exact, {:.1} % within ±1 zone (held-out training frames, epoch {})",
+            "validation   {:.1} % exact, {:.1} % within ±1 zone ({}, epoch {})",
             100.0 * r.val_accuracy.unwrap_or(0.0),
             100.0 * r.val_within1.unwrap_or(0.0),
+            cfg.validation
+                .sequence
+                .as_ref()
+                .map_or("held-out training frames".to_string(), |p| p
+                    .display()
+                    .to_string()),
             r.epoch
         );
     }
