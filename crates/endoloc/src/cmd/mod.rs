@@ -5,6 +5,7 @@ pub mod dataset;
 pub mod demo;
 pub mod eval;
 pub mod features;
+pub mod import;
 pub mod localize;
 pub mod run;
 pub mod simulate;
