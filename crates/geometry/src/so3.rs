@@ -125,13 +125,15 @@ pub fn right_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// `1/θ² − (1 + cos θ) / (2 θ sin θ)`, with its series near zero.
+///
+/// Evaluated as `1/θ² − 1 / (2 θ tan(θ/2))` (the same value: `(1 + cos θ)/sin θ = cot(θ/2)`),
+/// which stays accurate near θ = π where `1 + cos θ` cancels catastrophically.
 fn inverse_coefficient(theta: f64) -> f64 {
     let t2 = theta * theta;
     if theta < SMALL_ANGLE {
         1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0
     } else {
-        let (s, c) = theta.sin_cos();
-        1.0 / t2 - (1.0 + c) / (2.0 * theta * s)
+        1.0 / t2 - 1.0 / (2.0 * theta * (0.5 * theta).tan())
     }
 }
 
