@@ -324,7 +324,11 @@ fn interpolate(
     if off.iter().any(|o| !o.is_finite() || o.abs() >= 1.0) {
         return None;
     }
-    let half = if mid.filter.size.is_multiple_of(2) { 0.5 } else { 0.0 };
+    let half = if mid.filter.size.is_multiple_of(2) {
+        0.5
+    } else {
+        0.0
+    };
     let step = grid.step as f64;
     let x = kx as f64 * step - half + off[0] * step;
     let y = ky as f64 * step - half + off[1] * step;
