@@ -17,7 +17,9 @@ pub mod align;
 pub mod ape;
 pub mod association;
 pub mod error;
+pub mod experiment_plots;
 pub mod frames_csv;
+pub mod html;
 pub mod metrics;
 pub mod output;
 pub mod plots;
@@ -31,10 +33,15 @@ pub use align::{AlignmentKind, Similarity3, align_trajectory, umeyama};
 pub use ape::{PoseRelation, ape_errors};
 pub use association::{Association, AssociationConfig, MatchedPair, associate};
 pub use error::EvalError;
+pub use experiment_plots::{
+    BoxColumn, BoxStats, CurvePoint, MethodBar, plot_error_boxes, plot_error_curve,
+    plot_method_bars,
+};
 pub use frames_csv::{
     FRAMES_CSV_HEADER, FrameRecord, format_frames_csv, parse_frames_csv, read_frames_csv,
     write_frames_csv,
 };
+pub use html::{Block, HtmlReport};
 pub use metrics::{
     EvalConfig, EvalInputs, Evaluation, FrameEvaluation, METRICS_FORMAT, Metrics, evaluate,
 };

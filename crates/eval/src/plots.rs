@@ -79,7 +79,7 @@ fn status_color(s: Option<Status>) -> RGBColor {
 }
 
 /// Renders with `draw` into an RGB buffer and writes it as a PNG, atomically.
-fn render_png(
+pub(crate) fn render_png(
     path: &Path,
     config: &PlotConfig,
     draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>, bool) -> Result<(), String>,
@@ -101,11 +101,15 @@ fn render_png(
     write_atomic(path, &png)
 }
 
-type Chart<'a, 'b> =
+pub(crate) type Chart<'a, 'b> =
     ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// Without text the mesh has no labels (and so no grid): draw the plot area's border.
-fn border(chart: &mut Chart<'_, '_>, x: (f64, f64), y: (f64, f64)) -> Result<(), String> {
+pub(crate) fn border(
+    chart: &mut Chart<'_, '_>,
+    x: (f64, f64),
+    y: (f64, f64),
+) -> Result<(), String> {
     chart
         .draw_series(std::iter::once(Rectangle::new(
             [(x.0, y.0), (x.1, y.1)],
@@ -115,7 +119,7 @@ fn border(chart: &mut Chart<'_, '_>, x: (f64, f64), y: (f64, f64)) -> Result<(),
         .map_err(|e| e.to_string())
 }
 
-fn padded(lo: f64, hi: f64) -> (f64, f64) {
+pub(crate) fn padded(lo: f64, hi: f64) -> (f64, f64) {
     let span = (hi - lo).abs().max(1e-6);
     (lo - 0.05 * span, hi + 0.05 * span)
 }
