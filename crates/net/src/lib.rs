@@ -28,6 +28,7 @@ pub mod pairs;
 pub mod plot;
 pub mod preprocess;
 pub mod pretrained;
+pub mod regress;
 pub mod temporal;
 pub mod train;
 pub mod zones;

@@ -1,0 +1,119 @@
+//! Pieces shared by the two training loops: held-out frames, augmented query images,
+//! batches as tensors.
+
+use super::RegressConfig;
+use super::roll::roll_image;
+use crate::augment::augment;
+use crate::preprocess::{InputSize, standardize};
+use crate::train::ImageCache;
+use burn::tensor::{Device, Tensor, TensorData};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+/// Whether frame `f` is held out (every `every`-th frame, offset by `every / 2`; 0 or 1: none).
+pub(crate) fn is_held(f: usize, every: usize) -> bool {
+    every > 1 && f % every == every / 2
+}
+
+/// (training frames, held-out frames) of `n` frames.
+pub(crate) fn split_holdout(n: usize, every: usize) -> (Vec<usize>, Vec<usize>) {
+    (0..n).partition(|&f| !is_held(f, every))
+}
+
+/// A query image of cached frame `f`: photometric augmentation and a roll drawn from
+/// `seed`, standardised. Returns the pixels and the roll angle (radians; 0 without roll).
+pub(crate) fn query_input(
+    cache: &ImageCache,
+    f: usize,
+    cfg: &RegressConfig,
+    seed: u64,
+) -> (Vec<f32>, f64) {
+    let (w, h) = (cache.size.width as usize, cache.size.height as usize);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let theta = if cfg.roll_deg > 0.0 {
+        rng.random_range(-cfg.roll_deg..=cfg.roll_deg).to_radians()
+    } else {
+        0.0
+    };
+    let mut v = augment(cache.image(f), w, h, &cfg.photometric(), &mut rng);
+    if theta != 0.0 {
+        v = roll_image(&v, w, h, theta);
+    }
+    standardize(&mut v);
+    (v, theta as f64)
+}
+
+/// Queries for `frames` in parallel, each from its own seed drawn sequentially from `rng`.
+pub(crate) fn query_batch(
+    cache: &ImageCache,
+    frames: &[usize],
+    cfg: &RegressConfig,
+    rng: &mut ChaCha8Rng,
+) -> (Vec<f32>, Vec<f64>) {
+    let seeds: Vec<u64> = frames.iter().map(|_| rng.random()).collect();
+    let parts: Vec<(Vec<f32>, f64)> = frames
+        .par_iter()
+        .zip(seeds.par_iter())
+        .map(|(&f, &s)| query_input(cache, f, cfg, s))
+        .collect();
+    let mut px = Vec::with_capacity(frames.len() * cache.size.pixels());
+    let mut rolls = Vec::with_capacity(frames.len());
+    for (p, r) in parts {
+        px.extend(p);
+        rolls.push(r);
+    }
+    (px, rolls)
+}
+
+/// Standardised, un-augmented cached frames, concatenated.
+pub(crate) fn clean_batch(cache: &ImageCache, frames: &[usize]) -> Vec<f32> {
+    frames
+        .par_iter()
+        .flat_map_iter(|&f| {
+            let mut v = cache.image(f).to_vec();
+            standardize(&mut v);
+            v
+        })
+        .collect()
+}
+
+/// `[n, 1, h, w]` tensor of `n` standardised images.
+pub(crate) fn images_tensor(px: Vec<f32>, n: usize, size: InputSize, device: &Device) -> Tensor<4> {
+    Tensor::<4>::from_data(
+        TensorData::new(px, [n, 1, size.height as usize, size.width as usize]),
+        device,
+    )
+}
+
+/// `[rows, cols]` tensor of `f32` rows.
+pub(crate) fn rows_tensor<const C: usize>(rows: &[[f32; C]], device: &Device) -> Tensor<2> {
+    let flat: Vec<f32> = rows.iter().flat_map(|r| r.iter().copied()).collect();
+    Tensor::<2>::from_data(TensorData::new(flat, [rows.len(), C]), device)
+}
+
+/// `b` frames drawn from `pool`: without replacement when `b ≤ pool.len()`, else with.
+pub(crate) fn draw_frames(pool: &[usize], b: usize, rng: &mut ChaCha8Rng) -> Vec<usize> {
+    if pool.is_empty() {
+        return Vec::new();
+    }
+    if b <= pool.len() {
+        rand::seq::index::sample(rng, pool.len(), b)
+            .into_iter()
+            .map(|i| pool[i])
+            .collect()
+    } else {
+        (0..b)
+            .map(|_| pool[rng.random_range(0..pool.len())])
+            .collect()
+    }
+}
+
+/// The first element of a scalar loss tensor.
+pub(crate) fn scalar(t: Tensor<1>) -> f32 {
+    t.into_data()
+        .try_into_vec::<f32>()
+        .ok()
+        .and_then(|v| v.first().copied())
+        .unwrap_or(f32::NAN)
+}

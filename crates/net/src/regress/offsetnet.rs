@@ -1,0 +1,476 @@
+//! OffsetNet (Sganga, Eng, Graetzel & Camarillo 2018): the relative pose from a reference
+//! image, whose pose is known, to the test image; the test pose is `T_ref ∘ offset`.
+//!
+//! Network: two branches sharing the zone classifier's backbone; the scaled descriptors of
+//! the reference `f_r` and of the query `f_q` are concatenated as `[f_r, f_q, f_q − f_r]` and a
+//! pose head ([`super::PoseHead`]) regresses the offset `T_ref⁻¹ · T_query` — its translation
+//! in the reference camera's frame (mm, normalised by the training offsets' mean and RMS) and
+//! its rotation quaternion (relative to the training offsets' mean rotation, `w ≥ 0`) — with
+//! the PoseNet loss ([`super::posenet_loss`]).
+//!
+//! Training pairs: a training frame `i` as the reference (not augmented, as a retrieved
+//! training image is at test time) and a frame `j` with `|i − j| ≤ pair_reach_frames` as the
+//! query (photometric and roll augmentation, its label rolled too).
+//!
+//! Inference: the caller retrieves the reference. The intended reference is the training frame
+//! whose Siamese descriptor is nearest to the test image's,
+//! [`crate::ZonePrediction::nearest_frame`]: it is the training view that looks most like the
+//! test image, hence the smallest offset and the closest to the training pairs; a fixed zone
+//! reference (e.g. the zone's middle frame) can be up to half a zone away.
+
+use super::batch::{
+    clean_batch, draw_frames, images_tensor, is_held, query_batch, rows_tensor, scalar,
+    split_holdout,
+};
+use super::io::{self, RegressMethod, RegressModelFile};
+use super::posenet::mean_errors;
+use super::roll::rolled_rotation;
+use super::{
+    PoseHead, PoseNormalizer, RegressConfig, RegressEpoch, RegressPhase, RegressProgress,
+    TrainingSet, check_frame, posenet_loss, scaled_features, tensor_rows,
+};
+use crate::NetError;
+use crate::backbone::EmbeddingNet;
+use crate::preprocess::{InputSize, network_input};
+use burn::module::Module;
+use burn::optim::{AdamConfig, GradientsParams};
+use burn::tensor::{Device, Tensor};
+use endoloc_geometry::Pose;
+use endoloc_geometry::pose::pose_from_parts;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use std::path::Path;
+use std::time::Instant;
+
+/// The relative pose `T_ref⁻¹ · T_query` (the query camera in the reference camera's frame,
+/// mm).
+pub fn offset_between(t_ref: &Pose, t_query: &Pose) -> Pose {
+    t_ref.inverse() * t_query
+}
+
+/// The query pose from the reference pose and the offset: `T_ref ∘ offset` (`T_wc`, mm).
+pub fn compose(t_ref: &Pose, offset: &Pose) -> Pose {
+    t_ref * offset
+}
+
+/// The OffsetNet network: a shared backbone for both images and a pose head on the
+/// concatenated features.
+#[derive(Module, Debug)]
+pub struct OffsetNetNet {
+    /// The zone classifier's backbone (both branches).
+    pub backbone: EmbeddingNet,
+    /// Offset head on `[f_ref, f_query, f_query − f_ref]`.
+    pub head: PoseHead,
+}
+
+impl OffsetNetNet {
+    /// A fresh network for `cfg` on `device` (seed the device first for reproducible
+    /// weights; the backbone comes from `cfg.init_backbone` when set).
+    ///
+    /// # Errors
+    /// [`NetError::Weights`] when `cfg.init_backbone` cannot be loaded.
+    pub fn new(cfg: &RegressConfig, device: &Device) -> Result<Self, NetError> {
+        let backbone = match &cfg.init_backbone {
+            Some(p) => crate::model::load_weights(&cfg.backbone, p, device)?,
+            None => cfg.backbone.init(device),
+        };
+        Ok(OffsetNetNet {
+            backbone,
+            head: PoseHead::new(3 * cfg.backbone.descriptor_dim(), cfg.hidden, device),
+        })
+    }
+
+    /// Normalised offset translations and raw relative quaternions of a batch of pairs.
+    ///
+    /// # Shapes
+    /// `reference`, `query`: `[b, 1, h, w]` standardised images → (`[b, 3]`, `[b, 4]`)
+    pub fn forward(&self, reference: Tensor<4>, query: Tensor<4>) -> (Tensor<2>, Tensor<2>) {
+        let b = reference.dims()[0];
+        let f = scaled_features(
+            self.backbone
+                .forward(Tensor::cat(vec![reference, query], 0)),
+        );
+        let fr = f.clone().narrow(0, 0, b);
+        let fq = f.narrow(0, b, b);
+        let diff = fq.clone() - fr.clone();
+        self.head.forward(Tensor::cat(vec![fr, fq, diff], 1))
+    }
+}
+
+/// A trained OffsetNet (validation mode).
+pub struct OffsetNetModel {
+    file: RegressModelFile,
+    net: OffsetNetNet,
+    device: Device,
+}
+
+impl std::fmt::Debug for OffsetNetModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("OffsetNetModel")
+            .field("backbone", &self.file.config.backbone.name())
+            .field("frames", &self.file.frames)
+            .finish()
+    }
+}
+
+impl OffsetNetModel {
+    /// Writes the model folder `dir` atomically ([`io`]); an existing `dir` is an error
+    /// unless `overwrite`.
+    ///
+    /// # Errors
+    /// [`NetError::AlreadyExists`], [`NetError::Io`], [`NetError::Weights`].
+    pub fn save(&self, dir: &Path, overwrite: bool) -> Result<(), NetError> {
+        io::save_model(dir, &self.file, &self.net, overwrite)
+    }
+
+    /// Loads a model folder on the CPU.
+    ///
+    /// # Errors
+    /// [`NetError::Io`] / [`NetError::Parse`] naming the missing or bad file (or a PoseNet
+    /// folder), [`NetError::Weights`] for weights that do not fit `regress.toml`.
+    pub fn load(dir: &Path) -> Result<Self, NetError> {
+        Self::load_on(dir, "cpu")
+    }
+
+    /// Loads a model folder on the named device ([`crate::device::from_name`]).
+    ///
+    /// # Errors
+    /// As [`OffsetNetModel::load`], and [`NetError::Device`].
+    pub fn load_on(dir: &Path, device: &str) -> Result<Self, NetError> {
+        let file = RegressModelFile::load(dir, RegressMethod::Offsetnet)?;
+        let device = crate::device::from_name(device)?;
+        let cfg = RegressConfig {
+            init_backbone: None,
+            ..file.config.clone()
+        };
+        let mut net = OffsetNetNet::new(&cfg, &device)?;
+        io::load_weights(dir, &mut net)?;
+        Ok(OffsetNetModel { file, net, device })
+    }
+
+    /// What the model is and how it was trained (`regress.toml`).
+    pub fn info(&self) -> &RegressModelFile {
+        &self.file
+    }
+
+    /// Loss and held-out errors per epoch.
+    pub fn history(&self) -> &[RegressEpoch] {
+        &self.file.history
+    }
+
+    /// The pose `T_wc` (mm) of the test frame `img` from a reference frame and its pose:
+    /// `t_ref ∘ offset(reference → img)`.
+    ///
+    /// # Errors
+    /// [`NetError::Image`] for a frame of another size than the training frames.
+    pub fn predict(
+        &self,
+        img: &image::GrayImage,
+        reference: &image::GrayImage,
+        t_ref: &Pose,
+    ) -> Result<Pose, NetError> {
+        Ok(compose(t_ref, &self.predict_offset(img, reference)?))
+    }
+
+    /// The offset `T_ref⁻¹ · T_img` (the test camera in the reference camera's frame, mm).
+    ///
+    /// # Errors
+    /// As [`OffsetNetModel::predict`].
+    pub fn predict_offset(
+        &self,
+        img: &image::GrayImage,
+        reference: &image::GrayImage,
+    ) -> Result<Pose, NetError> {
+        self.predict_offsets(std::slice::from_ref(img), std::slice::from_ref(reference))?
+            .pop()
+            .ok_or_else(|| NetError::Config("no prediction".into()))
+    }
+
+    /// Poses of many test frames, each with its reference frame and pose.
+    ///
+    /// # Errors
+    /// [`NetError::Config`] when the three slices differ in length; as
+    /// [`OffsetNetModel::predict`] for the first bad frame.
+    pub fn predict_batch(
+        &self,
+        imgs: &[image::GrayImage],
+        references: &[image::GrayImage],
+        t_refs: &[Pose],
+    ) -> Result<Vec<Pose>, NetError> {
+        if t_refs.len() != imgs.len() {
+            return Err(NetError::Config(format!(
+                "{} test frames but {} reference poses",
+                imgs.len(),
+                t_refs.len()
+            )));
+        }
+        let offsets = self.predict_offsets(imgs, references)?;
+        Ok(t_refs
+            .iter()
+            .zip(&offsets)
+            .map(|(t, o)| compose(t, o))
+            .collect())
+    }
+
+    /// Offsets of many (test, reference) frame pairs.
+    ///
+    /// # Errors
+    /// As [`OffsetNetModel::predict_batch`].
+    pub fn predict_offsets(
+        &self,
+        imgs: &[image::GrayImage],
+        references: &[image::GrayImage],
+    ) -> Result<Vec<Pose>, NetError> {
+        if imgs.len() != references.len() {
+            return Err(NetError::Config(format!(
+                "{} test frames but {} reference frames",
+                imgs.len(),
+                references.len()
+            )));
+        }
+        let (w, h) = (self.file.frame_width, self.file.frame_height);
+        for (i, (a, b)) in imgs.iter().zip(references).enumerate() {
+            check_frame(a, w, h, &format!("query frame {i}"))?;
+            check_frame(b, w, h, &format!("reference frame {i}"))?;
+        }
+        let size = self.file.config.backbone.input();
+        let batch = self.file.config.inference_batch.max(1);
+        let mut out = Vec::with_capacity(imgs.len());
+        for (q, r) in imgs.chunks(batch).zip(references.chunks(batch)) {
+            let prep = |v: &[image::GrayImage]| -> Vec<f32> {
+                v.par_iter()
+                    .flat_map_iter(|im| network_input(im, size))
+                    .collect()
+            };
+            out.extend(offsets_px(
+                &self.net,
+                &self.device,
+                &self.file.normalizer,
+                (prep(r), prep(q)),
+                q.len(),
+                size,
+            ));
+        }
+        Ok(out)
+    }
+}
+
+fn offsets_px(
+    net: &OffsetNetNet,
+    device: &Device,
+    nz: &PoseNormalizer,
+    (ref_px, query_px): (Vec<f32>, Vec<f32>),
+    n: usize,
+    size: InputSize,
+) -> Vec<Pose> {
+    let (p, q) = net.forward(
+        images_tensor(ref_px, n, size, device),
+        images_tensor(query_px, n, size, device),
+    );
+    let (p, q) = (tensor_rows(p), tensor_rows(q));
+    p.chunks_exact(3)
+        .zip(q.chunks_exact(4))
+        .map(|(x, q)| nz.pose_from_output(x, q))
+        .collect()
+}
+
+/// A training frame near `target` that is not held out.
+fn nearest_training_frame(target: usize, n: usize, every: usize) -> usize {
+    let t = target.min(n.saturating_sub(1));
+    if !is_held(t, every) {
+        t
+    } else if t > 0 {
+        t - 1
+    } else {
+        (t + 1).min(n.saturating_sub(1))
+    }
+}
+
+/// The reference frame used to validate held-out frame `h`: the training frame half the pair
+/// reach before it (after it near the start), a typical training offset.
+fn validation_reference(h: usize, n: usize, cfg: &RegressConfig) -> usize {
+    let half = (cfg.pair_reach_frames / 2).max(1);
+    let target = if h >= half { h - half } else { h + half };
+    nearest_training_frame(target, n, cfg.holdout_every)
+}
+
+/// Trains OffsetNet on pairs of nearby frames of `data` (see the module documentation).
+///
+/// Each step draws `cfg.schedule.batch` reference frames (without replacement within the
+/// step) and for each a query frame at most `cfg.pair_reach_frames` away; held-out frames
+/// (`cfg.holdout_every > 1`) are never used. Same seed and data → same weights.
+///
+/// # Errors
+/// [`NetError::Config`] for a bad config or data (fewer than 2 frames, a cache at another
+/// size than the backbone's input, non-finite poses); [`NetError::Weights`] for a bad
+/// `init_backbone`; [`NetError::Diverged`] for a non-finite loss; [`NetError::Device`].
+pub fn train_offsetnet(
+    cfg: &RegressConfig,
+    data: &TrainingSet,
+    progress: &mut dyn FnMut(&RegressProgress),
+) -> Result<OffsetNetModel, NetError> {
+    cfg.validate()?;
+    data.check(cfg, 2)?;
+    let n = data.len();
+    let base = crate::device::from_name(&cfg.device)?;
+    let device = base.clone().autodiff();
+    let (train_frames, held) = split_holdout(n, cfg.holdout_every);
+    let reach = cfg.pair_reach_frames;
+    let partner = |i: usize, delta: i64| -> usize {
+        let j = (i as i64 + delta).clamp(0, n as i64 - 1) as usize;
+        nearest_training_frame(j, n, cfg.holdout_every)
+    };
+    // Normaliser from a deterministic spread of training offsets.
+    let stride = (train_frames.len() / 500).max(1);
+    let r = reach as i64;
+    let offsets: Vec<Pose> = train_frames
+        .iter()
+        .step_by(stride)
+        .flat_map(|&i| {
+            [-r, -r / 2, r / 2, r]
+                .into_iter()
+                .map(move |d| (i, d))
+                .collect::<Vec<_>>()
+        })
+        .map(|(i, d)| offset_between(&data.poses[i], &data.poses[partner(i, d)]))
+        .collect();
+    let nz = PoseNormalizer::fit(&offsets)?;
+    device.seed(cfg.seed);
+    let mut net = OffsetNetNet::new(cfg, &device)?;
+    let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
+
+    let sched = &cfg.schedule;
+    let steps_per_epoch = sched.steps_per_epoch();
+    let total_steps = steps_per_epoch * sched.epochs;
+    let size = data.images.size;
+    let t0 = Instant::now();
+    let mut history = Vec::with_capacity(sched.epochs);
+    let mut last_loss = None;
+    for epoch in 0..sched.epochs {
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x0FF5_E7AE_7000_0000);
+        rng.set_stream(epoch as u64 + 1);
+        let mut loss_sum = 0.0f64;
+        let mut remaining = sched.samples_per_epoch;
+        let mut k = 0;
+        while remaining > 0 {
+            let b = remaining.min(sched.batch).max(2);
+            remaining = remaining.saturating_sub(b);
+            let refs = draw_frames(&train_frames, b, &mut rng);
+            let queries: Vec<usize> = refs
+                .iter()
+                .map(|&i| partner(i, rng.random_range(-r..=r)))
+                .collect();
+            let ref_px = clean_batch(&data.images, &refs);
+            let (query_px, rolls) = query_batch(&data.images, &queries, cfg, &mut rng);
+            let (xs, qs): (Vec<[f32; 3]>, Vec<[f32; 4]>) = refs
+                .iter()
+                .zip(&queries)
+                .zip(&rolls)
+                .map(|((&i, &j), &theta)| {
+                    let p = &data.poses[j];
+                    let rolled =
+                        pose_from_parts(p.translation.vector, rolled_rotation(&p.rotation, theta));
+                    nz.target(&offset_between(&data.poses[i], &rolled))
+                })
+                .unzip();
+            let (x_hat, q_hat) = net.forward(
+                images_tensor(ref_px, refs.len(), size, &device),
+                images_tensor(query_px, refs.len(), size, &device),
+            );
+            let loss = posenet_loss(
+                x_hat,
+                q_hat,
+                rows_tensor(&xs, &device),
+                rows_tensor(&qs, &device),
+                cfg.beta,
+            );
+            let lv = scalar(loss.clone());
+            if !lv.is_finite() {
+                return Err(NetError::Diverged {
+                    epoch: epoch + 1,
+                    loss: lv,
+                });
+            }
+            let grads = GradientsParams::from_grads(loss.backward(), &net);
+            let lr = sched.learning_rate_at(epoch * steps_per_epoch + k, total_steps);
+            net = optim.step(lr, net, grads);
+            loss_sum += lv as f64;
+            k += 1;
+            progress(&RegressProgress {
+                phase: RegressPhase::Training,
+                done: epoch * steps_per_epoch + k,
+                total: total_steps,
+                epoch: epoch + 1,
+                loss: last_loss,
+            });
+        }
+        let loss = (loss_sum / k.max(1) as f64) as f32;
+        last_loss = Some(loss);
+        let last = epoch + 1 == sched.epochs;
+        let validate = !held.is_empty()
+            && cfg.validate_every_epochs > 0
+            && ((epoch + 1) % cfg.validate_every_epochs == 0 || last);
+        let (vp, vo) = if validate {
+            progress(&RegressProgress {
+                phase: RegressPhase::Validating,
+                done: (epoch + 1) * steps_per_epoch,
+                total: total_steps,
+                epoch: epoch + 1,
+                loss: last_loss,
+            });
+            let valid = net.valid();
+            let mut est = Vec::with_capacity(held.len());
+            for chunk in held.chunks(cfg.inference_batch.max(1)) {
+                let refs: Vec<usize> = chunk
+                    .iter()
+                    .map(|&h| validation_reference(h, n, cfg))
+                    .collect();
+                let offs = offsets_px(
+                    &valid,
+                    &base,
+                    &nz,
+                    (
+                        clean_batch(&data.images, &refs),
+                        clean_batch(&data.images, chunk),
+                    ),
+                    chunk.len(),
+                    size,
+                );
+                est.extend(
+                    refs.iter()
+                        .zip(&offs)
+                        .map(|(&r, o)| compose(&data.poses[r], o)),
+                );
+            }
+            let truth: Vec<Pose> = held.iter().map(|&f| data.poses[f]).collect();
+            let (p, o) = mean_errors(&est, &truth);
+            tracing::info!("offsetnet epoch {}: held-out {p:.1} mm, {o:.2}°", epoch + 1);
+            (Some(p), Some(o))
+        } else {
+            (None, None)
+        };
+        history.push(RegressEpoch {
+            epoch: epoch + 1,
+            loss,
+            val_position_mm: vp,
+            val_orientation_deg: vo,
+            elapsed_s: t0.elapsed().as_secs_f64(),
+        });
+    }
+    let file = RegressModelFile {
+        format_version: io::FORMAT_VERSION,
+        method: RegressMethod::Offsetnet,
+        frame_width: data.frame_width,
+        frame_height: data.frame_height,
+        frames: n,
+        normalizer: nz,
+        config: cfg.clone(),
+        history,
+    };
+    Ok(OffsetNetModel {
+        file,
+        net: net.valid(),
+        device: base,
+    })
+}

@@ -1,0 +1,367 @@
+//! PoseNet (Kendall, Grimes & Cipolla 2015): a test image's pose regressed directly.
+//!
+//! The network is the zone classifier's backbone with a pose head ([`super::PoseHead`]);
+//! it predicts the normalised position and the quaternion relative to the training set's
+//! reference rotation ([`super::PoseNormalizer`]), trained with [`super::posenet_loss`].
+//!
+//! ```no_run
+//! # fn main() -> Result<(), endoloc_net::NetError> {
+//! use endoloc_net::regress::{PoseNetModel, RegressConfig, TrainingSet, train_posenet};
+//! let seq = endoloc_data::Sequence::open(std::path::Path::new("data/train"))?;
+//! let cfg = RegressConfig::default();
+//! let data = TrainingSet::from_sequence(&seq, cfg.backbone.input(), &mut |_| {})?;
+//! let model = train_posenet(&cfg, &data, &mut |_| {})?;
+//! model.save(std::path::Path::new("posenet"), false)?;
+//! let pose = PoseNetModel::load(std::path::Path::new("posenet"))?.predict(&seq.load_gray(0)?)?;
+//! # let _ = pose; Ok(()) }
+//! ```
+
+use super::batch::{
+    clean_batch, draw_frames, images_tensor, query_batch, rows_tensor, scalar, split_holdout,
+};
+use super::io::{self, RegressMethod, RegressModelFile};
+use super::roll::rolled_rotation;
+use super::{
+    PoseHead, PoseNormalizer, RegressConfig, RegressEpoch, RegressPhase, RegressProgress,
+    TrainingSet, check_frame, posenet_loss, scaled_features, tensor_rows,
+};
+use crate::NetError;
+use crate::backbone::EmbeddingNet;
+use crate::preprocess::network_input;
+use crate::train::ImageCache;
+use burn::module::Module;
+use burn::optim::{AdamConfig, GradientsParams};
+use burn::tensor::{Device, Tensor};
+use endoloc_geometry::pose::pose_from_parts;
+use endoloc_geometry::{Pose, orientation_error_deg, position_error_mm};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use std::path::Path;
+use std::time::Instant;
+
+/// The PoseNet network: backbone → scaled descriptor → pose head.
+#[derive(Module, Debug)]
+pub struct PoseNetNet {
+    /// The zone classifier's backbone.
+    pub backbone: EmbeddingNet,
+    /// Position + quaternion head.
+    pub head: PoseHead,
+}
+
+impl PoseNetNet {
+    /// A fresh network for `cfg` on `device` (seed the device first for reproducible weights;
+    /// the backbone comes from `cfg.init_backbone` when set).
+    ///
+    /// # Errors
+    /// [`NetError::Weights`] when `cfg.init_backbone` cannot be loaded.
+    pub fn new(cfg: &RegressConfig, device: &Device) -> Result<Self, NetError> {
+        let backbone = match &cfg.init_backbone {
+            Some(p) => crate::model::load_weights(&cfg.backbone, p, device)?,
+            None => cfg.backbone.init(device),
+        };
+        Ok(PoseNetNet {
+            backbone,
+            head: PoseHead::new(cfg.backbone.descriptor_dim(), cfg.hidden, device),
+        })
+    }
+
+    /// Normalised positions and raw relative quaternions of a batch.
+    ///
+    /// # Shapes
+    /// `[b, 1, h, w]` standardised images → (`[b, 3]`, `[b, 4]`)
+    pub fn forward(&self, x: Tensor<4>) -> (Tensor<2>, Tensor<2>) {
+        self.head.forward(scaled_features(self.backbone.forward(x)))
+    }
+}
+
+/// A trained PoseNet (validation mode).
+pub struct PoseNetModel {
+    file: RegressModelFile,
+    net: PoseNetNet,
+    device: Device,
+}
+
+impl std::fmt::Debug for PoseNetModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PoseNetModel")
+            .field("backbone", &self.file.config.backbone.name())
+            .field("frames", &self.file.frames)
+            .finish()
+    }
+}
+
+impl PoseNetModel {
+    /// Writes the model folder `dir` atomically ([`io`]); an existing `dir` is an error
+    /// unless `overwrite`.
+    ///
+    /// # Errors
+    /// [`NetError::AlreadyExists`], [`NetError::Io`], [`NetError::Weights`].
+    pub fn save(&self, dir: &Path, overwrite: bool) -> Result<(), NetError> {
+        io::save_model(dir, &self.file, &self.net, overwrite)
+    }
+
+    /// Loads a model folder on the CPU.
+    ///
+    /// # Errors
+    /// [`NetError::Io`] / [`NetError::Parse`] naming the missing or bad file (or an OffsetNet
+    /// folder), [`NetError::Weights`] for weights that do not fit `regress.toml`.
+    pub fn load(dir: &Path) -> Result<Self, NetError> {
+        Self::load_on(dir, "cpu")
+    }
+
+    /// Loads a model folder on the named device ([`crate::device::from_name`]).
+    ///
+    /// # Errors
+    /// As [`PoseNetModel::load`], and [`NetError::Device`].
+    pub fn load_on(dir: &Path, device: &str) -> Result<Self, NetError> {
+        let file = RegressModelFile::load(dir, RegressMethod::Posenet)?;
+        let device = crate::device::from_name(device)?;
+        let cfg = RegressConfig {
+            init_backbone: None,
+            ..file.config.clone()
+        };
+        let mut net = PoseNetNet::new(&cfg, &device)?;
+        io::load_weights(dir, &mut net)?;
+        Ok(PoseNetModel { file, net, device })
+    }
+
+    /// What the model is and how it was trained (`regress.toml`).
+    pub fn info(&self) -> &RegressModelFile {
+        &self.file
+    }
+
+    /// Loss and held-out errors per epoch.
+    pub fn history(&self) -> &[RegressEpoch] {
+        &self.file.history
+    }
+
+    /// The pose `T_wc` (mm) of one grey frame.
+    ///
+    /// # Errors
+    /// [`NetError::Image`] for a frame of another size than the training frames.
+    pub fn predict(&self, img: &image::GrayImage) -> Result<Pose, NetError> {
+        self.predict_batch(std::slice::from_ref(img))?
+            .pop()
+            .ok_or_else(|| NetError::Config("no prediction".into()))
+    }
+
+    /// Poses `T_wc` (mm) of many frames (preprocessing on all cores, the network in batches).
+    ///
+    /// # Errors
+    /// As [`PoseNetModel::predict`], for the first bad frame.
+    pub fn predict_batch(&self, imgs: &[image::GrayImage]) -> Result<Vec<Pose>, NetError> {
+        for (i, im) in imgs.iter().enumerate() {
+            check_frame(
+                im,
+                self.file.frame_width,
+                self.file.frame_height,
+                &format!("query frame {i}"),
+            )?;
+        }
+        let size = self.file.config.backbone.input();
+        let mut out = Vec::with_capacity(imgs.len());
+        for chunk in imgs.chunks(self.file.config.inference_batch.max(1)) {
+            let px: Vec<f32> = chunk
+                .par_iter()
+                .flat_map_iter(|im| network_input(im, size))
+                .collect();
+            out.extend(predict_px(
+                &self.net,
+                &self.device,
+                &self.file.normalizer,
+                px,
+                chunk.len(),
+                size,
+            ));
+        }
+        Ok(out)
+    }
+}
+
+fn predict_px(
+    net: &PoseNetNet,
+    device: &Device,
+    nz: &PoseNormalizer,
+    px: Vec<f32>,
+    n: usize,
+    size: crate::preprocess::InputSize,
+) -> Vec<Pose> {
+    let (p, q) = net.forward(images_tensor(px, n, size, device));
+    let (p, q) = (tensor_rows(p), tensor_rows(q));
+    p.chunks_exact(3)
+        .zip(q.chunks_exact(4))
+        .map(|(x, q)| nz.pose_from_output(x, q))
+        .collect()
+}
+
+/// Poses of cached frames (no augmentation).
+fn predict_cached(
+    net: &PoseNetNet,
+    device: &Device,
+    nz: &PoseNormalizer,
+    cache: &ImageCache,
+    frames: &[usize],
+    batch: usize,
+) -> Vec<Pose> {
+    let mut out = Vec::with_capacity(frames.len());
+    for chunk in frames.chunks(batch.max(1)) {
+        let px = clean_batch(cache, chunk);
+        out.extend(predict_px(net, device, nz, px, chunk.len(), cache.size));
+    }
+    out
+}
+
+/// Mean position (mm) and orientation (°) errors of `est` against `truth`.
+pub(crate) fn mean_errors(est: &[Pose], truth: &[Pose]) -> (f64, f64) {
+    let n = est.len().min(truth.len()).max(1) as f64;
+    let p = est
+        .iter()
+        .zip(truth)
+        .map(|(e, t)| position_error_mm(e, t))
+        .sum::<f64>();
+    let o = est
+        .iter()
+        .zip(truth)
+        .map(|(e, t)| orientation_error_deg(e, t))
+        .sum::<f64>();
+    (p / n, o / n)
+}
+
+/// Trains PoseNet on `data` (every frame, or all but the held-out ones when
+/// `cfg.holdout_every > 1`).
+///
+/// Each step draws `cfg.schedule.batch` training frames (without replacement within the
+/// step), augments them ([`RegressConfig::augment`] photometric part, roll with the label
+/// rolled too), and takes an Adam step on [`posenet_loss`]. Same seed and data → same weights.
+///
+/// # Errors
+/// [`NetError::Config`] for a bad config or data (fewer than 2 frames, a cache at another
+/// size than the backbone's input, non-finite poses); [`NetError::Weights`] for a bad
+/// `init_backbone`; [`NetError::Diverged`] for a non-finite loss; [`NetError::Device`].
+pub fn train_posenet(
+    cfg: &RegressConfig,
+    data: &TrainingSet,
+    progress: &mut dyn FnMut(&RegressProgress),
+) -> Result<PoseNetModel, NetError> {
+    cfg.validate()?;
+    data.check(cfg, 2)?;
+    let base = crate::device::from_name(&cfg.device)?;
+    let device = base.clone().autodiff();
+    let (train_frames, held) = split_holdout(data.len(), cfg.holdout_every);
+    let train_poses: Vec<Pose> = train_frames.iter().map(|&f| data.poses[f]).collect();
+    let nz = PoseNormalizer::fit(&train_poses)?;
+    device.seed(cfg.seed);
+    let mut net = PoseNetNet::new(cfg, &device)?;
+    let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
+
+    let sched = &cfg.schedule;
+    let steps_per_epoch = sched.steps_per_epoch();
+    let total_steps = steps_per_epoch * sched.epochs;
+    let size = data.images.size;
+    let t0 = Instant::now();
+    let mut history = Vec::with_capacity(sched.epochs);
+    let mut last_loss = None;
+    for epoch in 0..sched.epochs {
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x9E37_79B9_7F4A_7C15);
+        rng.set_stream(epoch as u64 + 1);
+        let mut loss_sum = 0.0f64;
+        let mut remaining = sched.samples_per_epoch;
+        let mut k = 0;
+        while remaining > 0 {
+            let b = remaining.min(sched.batch).max(2);
+            remaining = remaining.saturating_sub(b);
+            let frames = draw_frames(&train_frames, b, &mut rng);
+            let (px, rolls) = query_batch(&data.images, &frames, cfg, &mut rng);
+            let (xs, qs): (Vec<[f32; 3]>, Vec<[f32; 4]>) = frames
+                .iter()
+                .zip(&rolls)
+                .map(|(&f, &theta)| {
+                    let p = &data.poses[f];
+                    nz.target(&pose_from_parts(
+                        p.translation.vector,
+                        rolled_rotation(&p.rotation, theta),
+                    ))
+                })
+                .unzip();
+            let (x_hat, q_hat) = net.forward(images_tensor(px, frames.len(), size, &device));
+            let loss = posenet_loss(
+                x_hat,
+                q_hat,
+                rows_tensor(&xs, &device),
+                rows_tensor(&qs, &device),
+                cfg.beta,
+            );
+            let lv = scalar(loss.clone());
+            if !lv.is_finite() {
+                return Err(NetError::Diverged {
+                    epoch: epoch + 1,
+                    loss: lv,
+                });
+            }
+            let grads = GradientsParams::from_grads(loss.backward(), &net);
+            let lr = sched.learning_rate_at(epoch * steps_per_epoch + k, total_steps);
+            net = optim.step(lr, net, grads);
+            loss_sum += lv as f64;
+            k += 1;
+            progress(&RegressProgress {
+                phase: RegressPhase::Training,
+                done: epoch * steps_per_epoch + k,
+                total: total_steps,
+                epoch: epoch + 1,
+                loss: last_loss,
+            });
+        }
+        let loss = (loss_sum / k.max(1) as f64) as f32;
+        last_loss = Some(loss);
+        let last = epoch + 1 == sched.epochs;
+        let validate = !held.is_empty()
+            && cfg.validate_every_epochs > 0
+            && ((epoch + 1) % cfg.validate_every_epochs == 0 || last);
+        let (vp, vo) = if validate {
+            progress(&RegressProgress {
+                phase: RegressPhase::Validating,
+                done: (epoch + 1) * steps_per_epoch,
+                total: total_steps,
+                epoch: epoch + 1,
+                loss: last_loss,
+            });
+            let est = predict_cached(
+                &net.valid(),
+                &base,
+                &nz,
+                &data.images,
+                &held,
+                cfg.inference_batch,
+            );
+            let truth: Vec<Pose> = held.iter().map(|&f| data.poses[f]).collect();
+            let (p, o) = mean_errors(&est, &truth);
+            tracing::info!("posenet epoch {}: held-out {p:.1} mm, {o:.2}°", epoch + 1);
+            (Some(p), Some(o))
+        } else {
+            (None, None)
+        };
+        history.push(RegressEpoch {
+            epoch: epoch + 1,
+            loss,
+            val_position_mm: vp,
+            val_orientation_deg: vo,
+            elapsed_s: t0.elapsed().as_secs_f64(),
+        });
+    }
+    let file = RegressModelFile {
+        format_version: io::FORMAT_VERSION,
+        method: RegressMethod::Posenet,
+        frame_width: data.frame_width,
+        frame_height: data.frame_height,
+        frames: data.len(),
+        normalizer: nz,
+        config: cfg.clone(),
+        history,
+    };
+    Ok(PoseNetModel {
+        file,
+        net: net.valid(),
+        device: base,
+    })
+}
