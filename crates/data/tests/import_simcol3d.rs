@@ -106,6 +106,7 @@ fn config() -> SimCol3dConfig {
         camera: camera(),
         fps: 20.0,
         sequence: None,
+        depth: true,
     }
 }
 
@@ -219,4 +220,133 @@ fn bad_rows_name_the_file_and_line() {
     std::fs::write(&pos, "0 0 0\n1 1 2\n").unwrap();
     let m = read_simcol3d(&colon, &config()).unwrap_err().to_string();
     assert!(m.contains("3 quaternions but 2 positions"), "{m}");
+}
+
+/// Writes a 16-bit grey `Depth_NNNN.png` (8×6) whose pixel (x, y) is `f(x, y)`.
+fn write_depth_png(path: &Path, f: impl Fn(u32, u32) -> u16) {
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(8, 6, |x, y| image::Luma([f(x, y)]))
+        .save(path)
+        .unwrap();
+}
+
+/// The stored 16-bit value of pixel (x, y) of frame i's depth map.
+fn depth_value(i: usize, x: u32, y: u32) -> u16 {
+    match (x, y) {
+        (0, 0) => 0,     // no depth
+        (1, 0) => 65280, // 1.0 in the organisers' scale: 20 cm
+        (2, 0) => 32640, // 10 cm
+        (3, 0) => 65535, // the largest code: 200.78 mm
+        _ => 1000 * (i as u16 + 1) + 7 * x as u16 + 3 * y as u16,
+    }
+}
+
+#[test]
+fn depth_maps_are_imported_in_millimetres() {
+    let tmp = tempfile::tempdir().unwrap();
+    let colon = tmp.path().join("SyntheticColon_I");
+    fixture(&colon, 11);
+    for i in 0..11 {
+        let p = colon.join(format!("Frames_S1/Depth_{i:04}.png"));
+        write_depth_png(&p, |x, y| depth_value(i, x, y));
+    }
+    let seq = read_simcol3d(&colon, &config()).unwrap();
+    // Joined by number: Depth_0010 belongs to FrameBuffer_0010 (natural order).
+    assert!(
+        seq.frames[10]
+            .depth
+            .as_ref()
+            .unwrap()
+            .ends_with("Depth_0010.png")
+    );
+    let out = tmp.path().join("ds");
+    let wc = WriteImportConfig {
+        name: "simcol".into(),
+        ..Default::default()
+    };
+    let summary = write_import(&out, &[("train".into(), seq)], &wc).unwrap();
+    assert_eq!(summary.sequences, vec![("train".to_string(), 11, true)]);
+    let s = Dataset::open(&out).unwrap().sequence("train").unwrap();
+    for i in [0usize, 3, 10] {
+        let (w, h, d) = s.load_depth_mm(i).unwrap();
+        assert_eq!((w, h), (8, 6));
+        let at = |x: u32, y: u32| d[(y * w + x) as usize] as f64;
+        assert_eq!(at(0, 0), 0.0, "frame {i}: 0 stays 'no depth'");
+        // The dataset stores round(mm × 100), so values agree to 0.005 mm.
+        assert!((at(1, 0) - 200.0).abs() <= 0.006, "{}", at(1, 0));
+        assert!((at(2, 0) - 100.0).abs() <= 0.006, "{}", at(2, 0));
+        assert!((at(3, 0) - 200.78125).abs() <= 0.006, "{}", at(3, 0));
+        for y in 0..h {
+            for x in 0..w {
+                let v = depth_value(i, x, y) as f64;
+                let mm = v * 200.0 / 65280.0;
+                assert!((at(x, y) - mm).abs() <= 0.006, "frame {i} ({x},{y})");
+            }
+        }
+    }
+}
+
+#[test]
+fn depth_on_some_frames_only_is_an_error_unless_depth_is_off() {
+    let tmp = tempfile::tempdir().unwrap();
+    let colon = tmp.path().join("SyntheticColon_I");
+    fixture(&colon, 3);
+    for i in [0usize, 2] {
+        let p = colon.join(format!("Frames_S1/Depth_{i:04}.png"));
+        write_depth_png(&p, |x, y| depth_value(i, x, y));
+    }
+    let m = read_simcol3d(&colon, &config()).unwrap_err().to_string();
+    assert!(
+        m.contains("FrameBuffer_0001.png")
+            && m.contains("Depth_0001.png")
+            && m.contains("no depth map"),
+        "{m}"
+    );
+    let cfg = SimCol3dConfig {
+        depth: false,
+        ..config()
+    };
+    let seq = read_simcol3d(&colon, &cfg).unwrap();
+    assert!(seq.depth_encoding.is_none());
+    assert!(seq.frames.iter().all(|f| f.depth.is_none()));
+
+    // A depth map that is not a grey image, or of the wrong size: an error naming the file.
+    let p1 = colon.join("Frames_S1/Depth_0001.png");
+    image::RgbImage::from_pixel(8, 6, image::Rgb([1, 2, 3]))
+        .save(&p1)
+        .unwrap();
+    let seq = read_simcol3d(&colon, &config()).unwrap();
+    let m = write_import(
+        &tmp.path().join("a"),
+        &[("t".into(), seq)],
+        &WriteImportConfig::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        m.contains("Depth_0001.png") && m.contains("one channel"),
+        "{m}"
+    );
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_pixel(5, 5, image::Luma([9]))
+        .save(&p1)
+        .unwrap();
+    let seq = read_simcol3d(&colon, &config()).unwrap();
+    let m = write_import(
+        &tmp.path().join("b"),
+        &[("t".into(), seq)],
+        &WriteImportConfig::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(m.contains("Depth_0001.png") && m.contains("5x5"), "{m}");
+    // Not a PNG at all.
+    std::fs::write(&p1, b"not a png").unwrap();
+    let seq = read_simcol3d(&colon, &config()).unwrap();
+    let m = write_import(
+        &tmp.path().join("c"),
+        &[("t".into(), seq)],
+        &WriteImportConfig::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(m.contains("Depth_0001.png"), "{m}");
 }

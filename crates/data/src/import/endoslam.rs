@@ -9,22 +9,23 @@
 //! - **ex-vivo** (`.xlsx` sheets with columns `ImageFrame, Pose_Index, trans_x, trans_y,
 //!   trans_z, quot_x, quot_y, quot_z, quot_w`): poses joined to the frames on `ImageFrame` (a
 //!   frame number, or a file name/stem); frames without a pose are skipped (and counted in
-//!   the notes). The `.xlsx` workbook itself is not read: export the sheet to CSV (e.g.
-//!   `libreoffice --headless --convert-to csv poses.xlsx`) and give the `.csv`. These poses are
-//!   taken as camera-to-world in a right-handed frame with OpenCV camera axes (not documented
-//!   by EndoSLAM: check a few frames visually); time stamps are the frame number / fps.
+//!   the notes). The workbook is read directly (feature `xlsx`, on by default): the sheet
+//!   named by [`EndoSlamConfig::sheet`], else the first sheet whose header row (its first
+//!   non-empty row) has an `ImageFrame` column; a CSV export of the sheet works too. Errors
+//!   name the file, the sheet, the row (as numbered in the spreadsheet) and the cell (`D7`).
+//!   These poses are taken as camera-to-world in a right-handed frame with OpenCV camera axes
+//!   (not documented by EndoSLAM: check a few frames visually); time stamps are the frame
+//!   number / fps.
 //!
 //! Neither kind documents its length unit, so [`EndoSlamConfig::units`] is required, and so
 //! is the camera (EndoSLAM's cameras differ per recording).
 //!
 //! Columns are found by their header names (surrounding spaces and case ignored), so column
-//! order does not matter.
+//! order does not matter. Either kind may come as CSV or as an `.xlsx` sheet.
 
 use super::simcol3d::pose_from_unity;
-use super::{
-    ImportedFrame, ImportedSequence, list_files, natural_sort, parse_field, unit_quaternion,
-};
-use crate::fsutil::read_text;
+use super::table::Table;
+use super::{ImportedFrame, ImportedSequence, list_files, natural_sort, unit_quaternion};
 use crate::{DataError, StampedPose};
 use endoloc_geometry::Camera;
 use nalgebra::Vector3;
@@ -60,8 +61,12 @@ pub struct EndoSlamConfig {
     pub camera: Camera,
     /// Length unit of the pose file.
     pub units: Units,
-    /// The pose file; default: the only `.csv` in `SRC/Poses/`, else in `SRC`.
+    /// The pose file (`.csv`, or `.xlsx` with the `xlsx` feature); default: the only `.csv` or
+    /// `.xlsx` in `SRC/Poses/`, else in `SRC`.
     pub poses: Option<PathBuf>,
+    /// The worksheet of an `.xlsx` pose file; default: the first sheet whose header row has an
+    /// `ImageFrame` column, else the first sheet. Ignored for CSV.
+    pub sheet: Option<String>,
     /// The frames folder; default `SRC/Frames` when it exists, else `SRC`.
     pub frames: Option<PathBuf>,
     /// Frame rate for ex-vivo time stamps (frame number / fps), frames per second.
@@ -75,6 +80,7 @@ impl EndoSlamConfig {
             camera,
             units,
             poses: None,
+            sheet: None,
             frames: None,
             fps: 30.0,
         }
@@ -119,106 +125,8 @@ fn find_pose_file(src: &Path) -> Result<PathBuf, DataError> {
     }
     Err(DataError::invalid(
         src,
-        "no pose file (.csv) in Poses/ or here; give one with --poses",
+        "no pose file (.csv or .xlsx) in Poses/ or here; give one with --poses",
     ))
-}
-
-/// A CSV table: header names (lower case, trimmed) and rows `(line, cells)`.
-struct Table {
-    header: Vec<String>,
-    rows: Vec<(usize, Vec<String>)>,
-}
-
-impl Table {
-    fn read(path: &Path) -> Result<Self, DataError> {
-        if path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("xlsx"))
-        {
-            return Err(DataError::invalid(
-                path,
-                "cannot read .xlsx workbooks; export the sheet to CSV (e.g. `libreoffice --headless --convert-to csv FILE.xlsx`) and give the .csv",
-            ));
-        }
-        let text = read_text(path)?;
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .filter(|(_, l)| !l.trim().is_empty());
-        let Some((_, head)) = lines.next() else {
-            return Err(DataError::parse(
-                path,
-                1,
-                "empty file; expected a header row",
-            ));
-        };
-        let split = |l: &str| -> Vec<String> {
-            l.split([',', ';', '\t'])
-                .map(|c| c.trim().trim_matches('"').trim().to_string())
-                .collect()
-        };
-        let header = split(head.trim_start_matches('\u{feff}'))
-            .into_iter()
-            .map(|h| h.to_ascii_lowercase())
-            .collect::<Vec<_>>();
-        let mut rows = Vec::new();
-        for (i, l) in lines {
-            let cells = split(l);
-            if cells.len() != header.len() {
-                return Err(DataError::parse(
-                    path,
-                    i + 1,
-                    format!(
-                        "{} columns; expected {} like the header ({})",
-                        cells.len(),
-                        header.len(),
-                        header.join(",")
-                    ),
-                ));
-            }
-            rows.push((i + 1, cells));
-        }
-        Ok(Table { header, rows })
-    }
-
-    /// Column indices of `names` (lower case), or an error listing what is missing.
-    fn columns<const N: usize>(
-        &self,
-        path: &Path,
-        names: [&str; N],
-    ) -> Result<[usize; N], DataError> {
-        let mut idx = [0; N];
-        for (k, n) in names.iter().enumerate() {
-            idx[k] = self.header.iter().position(|h| h == n).ok_or_else(|| {
-                DataError::parse(
-                    path,
-                    1,
-                    format!(
-                        "header has no column {n:?}; expected columns {} (found {})",
-                        names.join(","),
-                        self.header.join(",")
-                    ),
-                )
-            })?;
-        }
-        Ok(idx)
-    }
-
-    fn number(
-        &self,
-        path: &Path,
-        line: usize,
-        cells: &[String],
-        col: usize,
-    ) -> Result<f64, DataError> {
-        let name = self.header.get(col).map_or("?", String::as_str);
-        parse_field(
-            path,
-            line,
-            &format!("column {} ({name})", col + 1),
-            cells.get(col).map_or("", String::as_str),
-        )
-    }
 }
 
 const UNITY_COLUMNS: [&str; 8] = ["tx", "ty", "tz", "rx", "ry", "rz", "rw", "time(s)"];
@@ -236,10 +144,11 @@ const EX_VIVO_COLUMNS: [&str; 8] = [
 /// Reads one EndoSLAM recording (see the [module docs](self)).
 ///
 /// # Errors
-/// [`DataError::Invalid`] for missing files, an `.xlsx` pose file, a pose/frame count mismatch
-/// (UnityCam), poses naming no frame or no match at all (ex-vivo); [`DataError::Parse`] naming
-/// the file and line for a wrong column count, a missing header column, a value that is not a
-/// finite number, a non-unit quaternion or a duplicate `ImageFrame`; [`DataError::Io`].
+/// [`DataError::Invalid`] for missing files, an unreadable workbook or a missing sheet, a
+/// pose/frame count mismatch (UnityCam), poses naming no frame or no match at all (ex-vivo);
+/// [`DataError::Parse`] naming the file and line (CSV) or sheet, row and cell (`.xlsx`) for a
+/// wrong column count, an empty sheet, a missing header column, a value that is not a finite
+/// number, a non-unit quaternion or a duplicate `ImageFrame`; [`DataError::Io`].
 pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequence, DataError> {
     if !(config.fps.is_finite() && config.fps > 0.0) {
         return Err(DataError::invalid(
@@ -255,7 +164,7 @@ pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequ
         let f = src.join("Frames");
         if f.is_dir() { f } else { src.to_path_buf() }
     });
-    let table = Table::read(&pose_path)?;
+    let table = Table::read(&pose_path, config.sheet.as_deref(), "imageframe")?;
     let images = natural_sort(&frames_dir, list_files(&frames_dir, is_image)?)?;
     if images.is_empty() {
         return Err(DataError::invalid(
@@ -266,26 +175,35 @@ pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequ
     let scale = config.units.mm_per_unit();
     let mut notes = Vec::new();
     let frames = if table.header.iter().any(|h| h == "imageframe") {
-        let c = table.columns(&pose_path, EX_VIVO_COLUMNS)?;
+        let c = table.columns(EX_VIVO_COLUMNS)?;
         // key → (line, pose) for every row.
         let mut by_key: BTreeMap<String, (usize, endoloc_geometry::Pose)> = BTreeMap::new();
         for (line, cells) in &table.rows {
             let v: Vec<f64> = c[1..]
                 .iter()
-                .map(|&k| table.number(&pose_path, *line, cells, k))
+                .map(|&k| table.number(*line, cells, k))
                 .collect::<Result<_, _>>()?;
-            let q = unit_quaternion(&pose_path, *line, [v[3], v[4], v[5], v[6]])?;
+            let q = unit_quaternion(&pose_path, *line, [v[3], v[4], v[5], v[6]])
+                .map_err(|e| table.locate(e))?;
             let pose = super::canonical_pose(Vector3::new(v[0], v[1], v[2]) * scale, q);
-            let raw = cells.get(c[0]).map_or("", String::as_str);
+            let raw = Table::text(cells, c[0]);
+            if raw.trim().is_empty() {
+                return Err(table.locate(DataError::parse(
+                    &pose_path,
+                    *line,
+                    "ImageFrame is empty; expected a frame number or image name",
+                )));
+            }
             let key = frame_key(raw);
             if let Some((first, _)) = by_key.insert(key, (*line, pose)) {
-                return Err(DataError::parse(
+                return Err(table.locate(DataError::parse(
                     &pose_path,
                     *line,
                     format!(
-                        "ImageFrame {raw:?} already has a pose on line {first}; expected one row per frame"
+                        "ImageFrame {raw:?} already has a pose on {}; expected one row per frame",
+                        table.row_name(first)
                     ),
-                ));
+                )));
             }
         }
         let mut frames = Vec::new();
@@ -337,7 +255,7 @@ pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequ
         }
         frames
     } else {
-        let c = table.columns(&pose_path, UNITY_COLUMNS)?;
+        let c = table.columns(UNITY_COLUMNS)?;
         if table.rows.len() != images.len() {
             return Err(DataError::invalid(
                 &pose_path,
@@ -353,9 +271,10 @@ pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequ
         for ((line, cells), (_, img)) in table.rows.iter().zip(images) {
             let v: Vec<f64> = c
                 .iter()
-                .map(|&k| table.number(&pose_path, *line, cells, k))
+                .map(|&k| table.number(*line, cells, k))
                 .collect::<Result<_, _>>()?;
-            let q = unit_quaternion(&pose_path, *line, [v[3], v[4], v[5], v[6]])?;
+            let q = unit_quaternion(&pose_path, *line, [v[3], v[4], v[5], v[6]])
+                .map_err(|e| table.locate(e))?;
             frames.push(ImportedFrame {
                 image: img,
                 depth: None,

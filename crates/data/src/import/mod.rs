@@ -3,8 +3,9 @@
 //!
 //! One file per source format, each documenting its conventions and pitfalls:
 //! - [`c3vd`]: C3VD (`pose.txt`, `{n}_color.png`, optional `{NNNN}_depth.tiff`);
-//! - [`simcol3d`]: SimCol3D (Unity, left-handed, cm);
-//! - [`endoslam`]: EndoSLAM (UnityCam CSV poses; ex-vivo pose sheets with undocumented units);
+//! - [`simcol3d`]: SimCol3D (Unity, left-handed, cm; optional `Depth_NNNN.png`);
+//! - [`endoslam`]: EndoSLAM (UnityCam CSV poses; ex-vivo `.xlsx` pose sheets with undocumented
+//!   units);
 //! - [`split`]: cutting one imported recording into train/test sequences.
 //!
 //! Every reader returns an [`ImportedSequence`] (image files, optional depth files and converted
@@ -16,6 +17,7 @@ pub mod c3vd;
 pub mod endoslam;
 pub mod simcol3d;
 pub mod split;
+mod table;
 
 use crate::dataset::{DatasetMeta, DatasetWriter, SequenceWriter};
 use crate::{DataError, StampedPose};
@@ -28,7 +30,7 @@ use std::path::{Path, PathBuf};
 /// `v × mm_per_unit` millimetres along the optical axis (0 = no depth).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DepthEncoding {
-    /// Millimetres per stored unit (C3VD: 100 / 65535).
+    /// Millimetres per stored unit (C3VD: 100 / 65535; SimCol3D: 200 / 65280).
     pub mm_per_unit: f64,
 }
 

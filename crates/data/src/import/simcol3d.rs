@@ -4,7 +4,8 @@
 //! - `SavedPosition_S1.txt`: one camera position per line, `tx ty tz`, centimetres, Unity world;
 //! - `SavedRotationQuaternion_S1.txt`: one camera rotation per line, `qx qy qz qw`, Unity world;
 //! - `Frames_S1/FrameBuffer_NNNN.png`: the frames, line `i` of both files is frame `i` (natural
-//!   order of the frame number).
+//!   order of the frame number);
+//! - `Frames_S1/Depth_NNNN.png` (optional): the depth map of frame `NNNN`, see below.
 //!
 //! `SRC` may be the colon folder (choose the trajectory with `sequence` when it holds several)
 //! or a `Frames_S1` folder (the pose files are then looked up next to it and in its parent).
@@ -30,19 +31,37 @@
 //!
 //! Intrinsics: the `cam.txt` shipped with the data is ambiguous; [`simcol3d_camera`] uses the
 //! commonly used fx = fy = 227.60416, cx = cy = 237.5 for 475×475 images (override it for other
-//! sizes). Time stamps are `i / fps`. Depth maps (`Depth_NNNN.png`) are not imported.
+//! sizes). Time stamps are `i / fps`.
+//!
+//! # Depth
+//! `Depth_NNNN.png` is a 16-bit grey PNG of depth along the camera's optical axis (z), joined
+//! to `FrameBuffer_NNNN.png` by number. Its scale is that of the challenge organisers' own
+//! code (github.com/anitarau/simcol): `evaluation/eval_synthetic_depth.py` loads ground truth
+//! as `png / 255 / 256` ("please use this to load ground truth depth") and multiplies by 20
+//! "to get centimeters" (values above 1, i.e. 20 cm, are treated as out of range), and
+//! `data_helpers/visualize_3D_data.py` back-projects `png / 256 / 255 * 20` (cm) along
+//! `K⁻¹ (u, v, 1)`, i.e. as z-depth. So `mm = v × 200 / 65280` ([`DEPTH_MM_PER_UNIT`]): the
+//! divisor is 255 × 256 = 65280, not 65535 (0.4 % apart), and 65535 is 200.8 mm. Depth is
+//! imported when every frame has a map (an error when only some do), unless
+//! [`SimCol3dConfig::depth`] is false.
 
 use super::{
-    ImportedFrame, ImportedSequence, list_files, natural_sort, parse_field, unit_quaternion,
+    DepthEncoding, ImportedFrame, ImportedSequence, list_files, natural_sort, parse_field,
+    unit_quaternion,
 };
 use crate::fsutil::read_text;
 use crate::{DataError, StampedPose};
 use endoloc_geometry::{Camera, Distortion, Pose};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Millimetres per SimCol3D (Unity scene) unit: positions are in centimetres.
 pub const MM_PER_CM: f64 = 10.0;
+
+/// SimCol3D's depth scale, millimetres per 16-bit unit: `200 / (255 × 256)` (the organisers'
+/// loader divides by 255 and 256 and multiplies by 20 cm; see the [module docs](self)).
+pub const DEPTH_MM_PER_UNIT: f64 = 200.0 / (255.0 * 256.0);
 
 /// The commonly used SimCol3D pinhole: 475×475, fx = fy = 227.60416, cx = cy = 237.5.
 pub fn simcol3d_camera() -> Camera {
@@ -67,6 +86,8 @@ pub struct SimCol3dConfig {
     /// Trajectory suffix (`S1` for `SavedPosition_S1.txt` and `Frames_S1/`), needed when the
     /// folder holds several.
     pub sequence: Option<String>,
+    /// Import the `Depth_NNNN.png` maps when the frames folder has them (default true).
+    pub depth: bool,
 }
 
 impl Default for SimCol3dConfig {
@@ -75,6 +96,7 @@ impl Default for SimCol3dConfig {
             camera: simcol3d_camera(),
             fps: 30.0,
             sequence: None,
+            depth: true,
         }
     }
 }
@@ -215,8 +237,9 @@ fn layout(src: &Path, sequence: Option<&str>) -> Result<(PathBuf, PathBuf, PathB
 /// endoloc's conventions.
 ///
 /// # Errors
-/// [`DataError::Invalid`] when the files cannot be found, for a bad `fps`, or when the
-/// position, quaternion and frame counts differ; [`DataError::Parse`] naming the file and
+/// [`DataError::Invalid`] when the files cannot be found, for a bad `fps`, when the
+/// position, quaternion and frame counts differ, or when some frames have a depth map and
+/// others not; [`DataError::Parse`] naming the file and
 /// line for a wrong column count, a value that is not a finite number, or a quaternion whose
 /// norm is not 1; [`DataError::Io`].
 pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequence, DataError> {
@@ -257,8 +280,42 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
             ),
         ));
     }
+    let depth: BTreeMap<u64, PathBuf> = if config.depth {
+        natural_sort(
+            &frames_dir,
+            list_files(&frames_dir, |n| {
+                n.starts_with("Depth_") && n.ends_with(".png")
+            })?,
+        )?
+        .into_iter()
+        .collect()
+    } else {
+        BTreeMap::new()
+    };
+    let mut notes = Vec::new();
+    if !depth.is_empty() {
+        if let Some((n, p)) = images.iter().find(|(n, _)| !depth.contains_key(n)) {
+            return Err(DataError::invalid(
+                &frames_dir,
+                format!(
+                    "{} has no depth map (Depth_{n:04}.png) while {} other frames have one; expected depth for every frame or none (or do not import depth)",
+                    p.display(),
+                    depth.len()
+                ),
+            ));
+        }
+        if depth.len() > images.len() {
+            notes.push(format!(
+                "{} Depth_*.png without a FrameBuffer image ignored",
+                depth.len() - images.len()
+            ));
+        }
+    }
+    let depth_encoding = (!depth.is_empty()).then_some(DepthEncoding {
+        mm_per_unit: DEPTH_MM_PER_UNIT,
+    });
     let mut frames = Vec::with_capacity(images.len());
-    for (i, ((_, image), ((_, t), (line, q)))) in images
+    for (i, ((n, image), ((_, t), (line, q)))) in images
         .into_iter()
         .zip(positions.iter().zip(&rotations))
         .enumerate()
@@ -266,7 +323,7 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
         let q = unit_quaternion(&rot_path, *line, *q)?;
         frames.push(ImportedFrame {
             image,
-            depth: None,
+            depth: depth.get(&n).cloned(),
             pose: StampedPose {
                 timestamp_s: i as f64 / config.fps,
                 pose: pose_from_unity(Vector3::new(t[0], t[1], t[2]), q, MM_PER_CM),
@@ -276,12 +333,18 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
     Ok(ImportedSequence {
         source: frames_dir,
         frames,
-        depth_encoding: None,
+        depth_encoding,
         camera: config.camera,
-        notes: vec![format!(
-            "poses from {} and {} (Unity, cm) converted with R = S R S, t = 10 S t, S = diag(1,-1,1)",
-            pos_path.display(),
-            rot_path.display()
-        )],
+        notes: {
+            notes.insert(0, format!(
+                "poses from {} and {} (Unity, cm) converted with R = S R S, t = 10 S t, S = diag(1,-1,1)",
+                pos_path.display(),
+                rot_path.display()
+            ));
+            if depth_encoding.is_some() {
+                notes.push("depth from Depth_NNNN.png, mm = v × 200 / 65280".into());
+            }
+            notes
+        },
     })
 }
