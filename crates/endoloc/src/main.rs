@@ -36,6 +36,7 @@ enum Command {
     Localize(cmd::localize::LocalizeArgs),
     Demo(cmd::demo::Args),
     Run(cmd::run::Args),
+    Experiment(cmd::experiment::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -53,6 +54,7 @@ fn main() -> std::process::ExitCode {
         Command::Localize(args) => cmd::localize::run_localize(args),
         Command::Demo(args) => cmd::demo::run(args),
         Command::Run(args) => cmd::run::run(args),
+        Command::Experiment(args) => cmd::experiment::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -11,7 +11,7 @@
 
 use std::time::Instant;
 
-use endoloc_features::{Describe, Matcher, MatcherConfig, Surf, SurfConfig};
+use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
 use endoloc_geometry::{Camera, LocalizeConfig, Pose, Reason, Status, localize_pose};
 use endoloc_net::{TemporalConfig, TemporalFilter, ZoneClassifier, ZonePrediction};
 use nalgebra::{Point2, Point3};
@@ -281,6 +281,30 @@ impl Localizer {
         chosen: usize,
         zone_ms: f64,
     ) -> Result<FrameResult, LocalizeError> {
+        let t = Instant::now();
+        let features = self.surf.detect_and_describe(img)?;
+        let times = StageTimes {
+            zone_ms,
+            surf_ms: ms(t),
+            ..Default::default()
+        };
+        self.localize_features(&features, pred, chosen, times)
+    }
+
+    /// [`Localizer::localize_with_prediction`] for SURF features already extracted from the
+    /// frame (with this localizer's [`LocalizerConfig::surf`]): experiments that localize the
+    /// same frames many times extract them once. `times` carries the zone and SURF times
+    /// spent so far; matching and refinement times are added.
+    ///
+    /// # Errors
+    /// A zone out of range; invalid refinement input.
+    pub fn localize_features(
+        &self,
+        features: &[Feature],
+        pred: &ZonePrediction,
+        chosen: usize,
+        times: StageTimes,
+    ) -> Result<FrameResult, LocalizeError> {
         let n_zones = self.classifier.zone_count();
         if chosen >= n_zones {
             return Err(LocalizeError::Config(format!(
@@ -296,13 +320,6 @@ impl Localizer {
         order.insert(0, chosen);
         order.truncate(self.cfg.candidate_zones.max(1));
 
-        let mut times = StageTimes {
-            zone_ms,
-            ..Default::default()
-        };
-        let t = Instant::now();
-        let features = self.surf.detect_and_describe(img)?;
-        times.surf_ms = ms(t);
         let mut first: Option<FrameResult> = None;
         let mut spent = StageTimes::default();
         let with_times = |r: FrameResult, spent: &StageTimes| FrameResult {
@@ -315,7 +332,7 @@ impl Localizer {
         };
         for zone in order {
             let score = pred.zone_scores.get(zone).copied().unwrap_or(f32::NAN);
-            let r = self.register(&features, zone, score, times)?;
+            let r = self.register(features, zone, score, times)?;
             spent.matching_ms += r.times.matching_ms;
             spent.refine_ms += r.times.refine_ms;
             if r.status == Status::Refined {
@@ -326,6 +343,36 @@ impl Localizer {
         // No zone registered: report the chosen zone's verdict (its median pose, or rejected).
         let r = first.ok_or_else(|| LocalizeError::Config("no candidate zone".into()))?;
         Ok(with_times(r, &spent))
+    }
+
+    /// Registers precomputed SURF features in one forced zone (its median pose as the prior,
+    /// its map points and its neighbours'), e.g. for the perturbation study.
+    ///
+    /// # Errors
+    /// A zone out of range; invalid refinement input.
+    pub fn register_in_zone(
+        &self,
+        features: &[Feature],
+        zone: usize,
+        times: StageTimes,
+    ) -> Result<FrameResult, LocalizeError> {
+        let n_zones = self.classifier.zone_count();
+        if zone >= n_zones {
+            return Err(LocalizeError::Config(format!(
+                "zone {zone} out of range (the model has {n_zones})"
+            )));
+        }
+        self.register(features, zone, f32::NAN, times)
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &LocalizerConfig {
+        &self.cfg
+    }
+
+    /// The SURF extractor of test frames (as configured), for callers that cache features.
+    pub fn surf(&self) -> &Surf {
+        &self.surf
     }
 }
 

@@ -29,6 +29,9 @@ use endoloc_geometry::{Camera, Distortion};
 ///
 ///   endoloc import endoslam UnityCam/Colon --units m --camera 320,320,156.0,156.0,160.0,160.0 \
 ///       --out data/endoslam_colon
+///
+///   endoloc import endoslam ExVivo/Colon-IV --poses ExVivo/Colon-IV/Poses/poses.xlsx \
+///       --sheet Sheet1 --units mm --camera W,H,FX,FY,CX,CY --out data/endoslam_colon_iv
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -59,15 +62,21 @@ enum Format {
         common: Common,
     },
     /// SimCol3D colon folder (SavedPosition_S*.txt in cm, SavedRotationQuaternion_S*.txt,
-    /// Frames_S*/FrameBuffer_NNNN.png) or one Frames_S* folder. Unity's left-handed y-up
-    /// poses are converted with R = S·R·S, t = 10·S·t, S = diag(1,-1,1). Camera: 475×475,
-    /// fx = fy = 227.60416, cx = cy = 237.5 unless --camera (cam.txt is ambiguous).
+    /// Frames_S*/FrameBuffer_NNNN.png, optional Frames_S*/Depth_NNNN.png) or one Frames_S*
+    /// folder. Unity's left-handed y-up poses are converted with R = S·R·S, t = 10·S·t,
+    /// S = diag(1,-1,1). Depth (16-bit, z-depth) is imported when every frame has a
+    /// Depth_NNNN.png, with the organisers' scale mm = v / (255 × 256) × 200 (65280 = 20 cm).
+    /// Camera: 475×475, fx = fy = 227.60416, cx = cy = 237.5 unless --camera (cam.txt is
+    /// ambiguous).
     Simcol3d {
         /// The colon folder, or a Frames_S* folder.
         src: PathBuf,
         /// Trajectory suffix when the folder holds several (S1 for SavedPosition_S1.txt).
         #[arg(long)]
         sequence: Option<String>,
+        /// Do not import the Depth_NNNN.png maps.
+        #[arg(long)]
+        no_depth: bool,
         /// Camera override: W,H,FX,FY,CX,CY.
         #[arg(long, value_name = "W,H,FX,FY,CX,CY")]
         camera: Option<String>,
@@ -75,9 +84,10 @@ enum Format {
         common: Common,
     },
     /// EndoSLAM recording: UnityCam (Poses/*.csv `tX,tY,tZ,rX,rY,rZ,rW,time(s)`, paired with
-    /// Frames/ by row, Unity axes converted) or ex-vivo (a CSV export of the pose sheet,
-    /// `ImageFrame,Pose_Index,trans_x..z,quot_x..w`, joined on ImageFrame; .xlsx must be
-    /// exported to CSV first). The length unit and the camera are not documented: give both.
+    /// Frames/ by row, Unity axes converted) or ex-vivo (an .xlsx pose workbook, or a CSV
+    /// export of its sheet, with columns `ImageFrame,Pose_Index,trans_x..z,quot_x..w`, joined
+    /// to the frames on ImageFrame; the sheet is --sheet, else the first whose header has
+    /// ImageFrame). The length unit and the camera are not documented: give both.
     Endoslam {
         /// The recording folder (holding Frames/ and Poses/).
         src: PathBuf,
@@ -87,9 +97,13 @@ enum Format {
         /// Camera: W,H,FX,FY,CX,CY.
         #[arg(long, value_name = "W,H,FX,FY,CX,CY")]
         camera: String,
-        /// Pose file (default: the only .csv in SRC/Poses, else in SRC).
+        /// Pose file, .csv or .xlsx (default: the only .csv or .xlsx in SRC/Poses, else in SRC).
         #[arg(long)]
         poses: Option<PathBuf>,
+        /// Worksheet of an .xlsx pose file (default: the first sheet whose header row has an
+        /// ImageFrame column, else the first sheet).
+        #[arg(long)]
+        sheet: Option<String>,
         /// Frames folder (default: SRC/Frames, else SRC).
         #[arg(long)]
         frames: Option<PathBuf>,
@@ -211,6 +225,7 @@ pub fn run(args: Args) -> Result<()> {
         Format::Simcol3d {
             src,
             sequence,
+            no_depth,
             camera,
             common,
         } => {
@@ -222,6 +237,7 @@ pub fn run(args: Args) -> Result<()> {
                     .unwrap_or_else(simcol3d_camera),
                 fps: common.fps,
                 sequence,
+                depth: !no_depth,
             };
             // A --test recording is usually another Frames_S* folder: its suffix comes from
             // its own folder name, not from --sequence.
@@ -243,6 +259,7 @@ pub fn run(args: Args) -> Result<()> {
             units,
             camera,
             poses,
+            sheet,
             frames,
             common,
         } => {
@@ -255,12 +272,14 @@ pub fn run(args: Args) -> Result<()> {
                 camera: parse_camera(&camera, false)?,
                 units,
                 poses,
+                sheet,
                 frames,
                 fps: common.fps,
             };
             let first = src.clone();
             let test_cfg = EndoSlamConfig {
                 poses: None,
+                sheet: None,
                 frames: None,
                 ..cfg.clone()
             };

@@ -4,6 +4,7 @@ pub mod classify;
 pub mod dataset;
 pub mod demo;
 pub mod eval;
+pub mod experiment;
 pub mod features;
 pub mod import;
 pub mod localize;

@@ -1,0 +1,554 @@
+//! What the experiments share: trained models and maps made (or reused) through the same
+//! code paths as `endoloc train` and `endoloc map`, test-frame SURF features extracted once,
+//! zone predictions, our method run in-process on cached features, and one evaluated row per
+//! method.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use endoloc_data::{Dataset, Sequence, StampedPose};
+use endoloc_eval::{
+    Block, EvalConfig, EvalInputs, FrameRecord, MethodBar, Sources, WriteOptions, evaluate,
+    write_atomic, write_frames_csv,
+};
+use endoloc_features::{Feature, SurfConfig};
+use endoloc_geometry::{Pose, Status};
+use endoloc_localize::map_io::load_map;
+use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, StageTimes};
+use endoloc_net::{TemporalFilter, ZoneClassifier, ZonePrediction, viterbi};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::cmd;
+use crate::cmd::demo::parse;
+use crate::ui;
+
+/// The dataset an experiment runs on: its training and test sequences.
+pub(super) struct Data {
+    /// Dataset folder.
+    pub dir: PathBuf,
+    /// The test sequence (images and ground-truth poses).
+    pub test: Sequence,
+    /// Name of the training sequence.
+    pub train_name: String,
+}
+
+impl Data {
+    pub fn open(dir: &Path, train: &str, test: &str) -> Result<Self> {
+        let ds =
+            Dataset::open(dir).with_context(|| format!("opening dataset {}", dir.display()))?;
+        // Fail early, before any training, if either sequence is missing.
+        ds.sequence(train)
+            .with_context(|| format!("training sequence {train:?}"))?;
+        let test = ds
+            .sequence(test)
+            .with_context(|| format!("test sequence {test:?}"))?;
+        if test.is_empty() {
+            bail!("the test sequence {} has no frame", test.dir.display());
+        }
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            test,
+            train_name: train.to_string(),
+        })
+    }
+}
+
+/// How a Siamese model is trained for an experiment.
+#[derive(Debug, Clone)]
+pub(super) struct TrainSpec {
+    /// `--zones` of `endoloc train`: a count or `expert`.
+    pub zones: String,
+    /// Epochs (`None`: the `fast` schedule's default).
+    pub epochs: Option<usize>,
+    /// Training seed.
+    pub seed: u64,
+}
+
+/// Trains a model into `dir` unless a finished one is already there (`model.toml` present).
+/// Returns whether it trained.
+pub(super) fn ensure_model(dir: &Path, data: &Data, spec: &TrainSpec) -> Result<bool> {
+    if dir.join("model.toml").is_file() {
+        eprintln!("reusing   model {}", dir.display());
+        return Ok(false);
+    }
+    let mut argv: Vec<String> = [
+        "train",
+        "--data",
+        &data.dir.display().to_string(),
+        "--seq",
+        &data.train_name,
+        "--zones",
+        &spec.zones,
+        "--out",
+        &dir.display().to_string(),
+        "--seed",
+        &spec.seed.to_string(),
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    if let Some(e) = spec.epochs {
+        argv.extend(["--epochs".to_string(), e.to_string()]);
+    }
+    // A half-written model folder from an interrupted run is resumed by `train` itself.
+    if dir.with_extension("partial").exists() {
+        argv.push("--resume".into());
+    }
+    cmd::demo::stage("train", &argv);
+    cmd::train::run(parse(&argv)?)?;
+    Ok(true)
+}
+
+/// Builds the per-zone maps of `model` unless it has one. Maps depend on the zone table and
+/// the training data, not on the training seed: when `share_from` holds a map built for an
+/// identical zone table (same `zones.csv`), it is copied instead of rebuilt.
+pub(super) fn ensure_map(
+    model: &Path,
+    data: &Data,
+    threshold: f64,
+    share_from: &[PathBuf],
+) -> Result<()> {
+    if model.join("map.bin").is_file() {
+        return Ok(());
+    }
+    let zones = std::fs::read(model.join("zones.csv"))
+        .with_context(|| format!("reading {}/zones.csv", model.display()))?;
+    for other in share_from {
+        if other == model || !other.join("map.bin").is_file() {
+            continue;
+        }
+        if std::fs::read(other.join("zones.csv")).ok().as_deref() == Some(&zones[..]) {
+            for f in ["map.toml", "map.bin"] {
+                let bytes = std::fs::read(other.join(f))
+                    .with_context(|| format!("reading {}/{f}", other.display()))?;
+                write_atomic(&model.join(f), &bytes)?;
+            }
+            eprintln!(
+                "reusing   map of {} (same zones) for {}",
+                other.display(),
+                model.display()
+            );
+            return Ok(());
+        }
+    }
+    let argv: Vec<String> = [
+        "map",
+        "--model",
+        &model.display().to_string(),
+        "--data",
+        &data.dir.display().to_string(),
+        "--seq",
+        &data.train_name,
+        "--threshold",
+        &threshold.to_string(),
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    cmd::demo::stage("map", &argv);
+    cmd::localize::run_map(parse(&argv)?)
+}
+
+/// SURF features of every test frame, extracted once with one configuration.
+pub(super) struct FeatureCache {
+    /// The SURF settings they were extracted with.
+    pub surf: SurfConfig,
+    /// Features per frame.
+    pub features: Vec<Vec<Feature>>,
+    /// Extraction time per frame, ms (one thread per frame).
+    pub surf_ms: Vec<f64>,
+}
+
+impl FeatureCache {
+    pub fn extract(seq: &Sequence, surf: &SurfConfig) -> Result<Self> {
+        let extractor = surf.clone().init().context("SURF settings")?;
+        let bar = ui::progress_bar(seq.len() as u64, "SURF");
+        let out: Result<Vec<(Vec<Feature>, f64)>> = (0..seq.len())
+            .into_par_iter()
+            .map(|i| {
+                let img = seq.load_gray(i)?;
+                let t = Instant::now();
+                let f = extractor
+                    .detect_and_describe(&img)
+                    .with_context(|| format!("SURF on {}", seq.image_paths[i].display()))?;
+                bar.inc(1);
+                Ok((f, t.elapsed().as_secs_f64() * 1e3))
+            })
+            .collect();
+        bar.finish_and_clear();
+        let (features, surf_ms) = out?.into_iter().unzip();
+        Ok(Self {
+            surf: surf.clone(),
+            features,
+            surf_ms,
+        })
+    }
+
+    /// Reuses `cache` when it was extracted with `surf`, else extracts anew into it.
+    pub fn get<'a>(
+        cache: &'a mut Option<FeatureCache>,
+        seq: &Sequence,
+        surf: &SurfConfig,
+    ) -> Result<&'a FeatureCache> {
+        if cache.as_ref().is_none_or(|c| &c.surf != surf) {
+            *cache = Some(Self::extract(seq, surf)?);
+        }
+        cache.as_ref().context("feature cache")
+    }
+}
+
+/// Zone predictions of every test frame, and the time per frame (descriptor + look-up,
+/// batched over both cores), ms.
+pub(super) fn predict_zones(
+    classifier: &ZoneClassifier,
+    seq: &Sequence,
+) -> Result<(Vec<ZonePrediction>, f64)> {
+    const BATCH: usize = 64;
+    let bar = ui::progress_bar(seq.len() as u64, "zones");
+    let t = Instant::now();
+    let mut preds = Vec::with_capacity(seq.len());
+    for start in (0..seq.len()).step_by(BATCH) {
+        let end = (start + BATCH).min(seq.len());
+        let imgs: Result<Vec<_>> = (start..end)
+            .into_par_iter()
+            .map(|i| Ok(seq.load_gray(i)?))
+            .collect();
+        preds.extend(classifier.classify_batch(&imgs?)?);
+        bar.inc((end - start) as u64);
+    }
+    bar.finish_and_clear();
+    let ms = t.elapsed().as_secs_f64() * 1e3 / seq.len().max(1) as f64;
+    Ok((preds, ms))
+}
+
+/// How our method picks the zone of each frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum ZoneChoice {
+    /// Each frame alone: the classifier's top zone (the paper).
+    PerFrame,
+    /// Causal HMM forward filter, frames in order (`--live`).
+    Live,
+    /// Offline Viterbi over the whole test pass.
+    Viterbi,
+}
+
+/// Runs our method on cached features and predictions: zone → median pose → matching →
+/// Gauss-Newton → validity, trying `candidate_zones` zones.
+pub(super) fn run_endoloc(
+    model: &Path,
+    features: &FeatureCache,
+    preds: &[ZonePrediction],
+    zone_ms: f64,
+    choice: ZoneChoice,
+    candidate_zones: usize,
+) -> Result<Vec<FrameResult>> {
+    let classifier = ZoneClassifier::load(model)
+        .with_context(|| format!("loading model {}", model.display()))?;
+    let map = load_map(model)?;
+    let cfg = LocalizerConfig {
+        candidate_zones,
+        surf: features.surf.clone(),
+        ..LocalizerConfig::default()
+    };
+    let localizer = Localizer::new(classifier, map, cfg)?;
+    let n = preds.len();
+    let chosen: Vec<usize> = match choice {
+        ZoneChoice::PerFrame => preds.iter().map(|p| p.zone).collect(),
+        ZoneChoice::Live => {
+            let mut filter: TemporalFilter = localizer.temporal_filter();
+            preds.iter().map(|p| filter.update(p)).collect()
+        }
+        ZoneChoice::Viterbi => viterbi(
+            preds,
+            localizer.classifier().zone_count(),
+            &localizer.config().temporal,
+        ),
+    };
+    let bar = ui::progress_bar(n as u64, "localize");
+    let results: Result<Vec<FrameResult>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let times = StageTimes {
+                zone_ms,
+                surf_ms: features.surf_ms[i],
+                ..Default::default()
+            };
+            let r = localizer.localize_features(&features.features[i], &preds[i], chosen[i], times);
+            bar.inc(1);
+            Ok(r?)
+        })
+        .collect();
+    bar.finish_and_clear();
+    results
+}
+
+/// The output of one method on the test sequence.
+pub(super) struct MethodOutput {
+    /// Short name (folder name and table row).
+    pub name: String,
+    /// One line on what it is.
+    pub description: String,
+    /// Estimated pose per test frame (`None`: not localized).
+    pub poses: Vec<Option<Pose>>,
+    /// Our method's per-frame results (status, zone, inliers, times), when it is ours.
+    pub results: Option<Vec<FrameResult>>,
+    /// Median time per frame, ms.
+    pub ms_per_frame: f64,
+}
+
+impl MethodOutput {
+    pub fn from_results(name: &str, description: &str, results: Vec<FrameResult>) -> Self {
+        let mut t: Vec<f64> = results.iter().map(|r| r.times.total_ms()).collect();
+        t.sort_by(f64::total_cmp);
+        Self {
+            name: name.into(),
+            description: description.into(),
+            poses: results.iter().map(|r| r.t_wc).collect(),
+            ms_per_frame: t.get(t.len() / 2).copied().unwrap_or(f64::NAN),
+            results: Some(results),
+        }
+    }
+}
+
+/// One method's figures on the test sequence.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(super) struct MethodRow {
+    pub method: String,
+    pub description: String,
+    pub frames: usize,
+    /// Frames with a pose.
+    pub localized: usize,
+    /// Frames `refined` (our method only).
+    pub refined: Option<usize>,
+    pub mean_position_mm: Option<f64>,
+    pub median_position_mm: Option<f64>,
+    pub mean_orientation_deg: Option<f64>,
+    pub median_orientation_deg: Option<f64>,
+    /// Errors over the `refined` frames only (our method).
+    pub refined_mean_position_mm: Option<f64>,
+    pub refined_mean_orientation_deg: Option<f64>,
+    /// Median time per frame, ms.
+    pub ms_per_frame: f64,
+}
+
+/// Writes `dir/trajectory.txt` (and `frames.csv` for our method), evaluates against the
+/// ground truth into `dir/eval/` (metrics.json, report, plots) and returns the row.
+pub(super) fn write_and_evaluate(
+    dir: &Path,
+    seq: &Sequence,
+    out: &MethodOutput,
+) -> Result<MethodRow> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let est: Vec<StampedPose> = out
+        .poses
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| {
+            p.map(|pose| StampedPose {
+                timestamp_s: seq.poses[i].timestamp_s,
+                pose,
+            })
+        })
+        .collect();
+    endoloc_data::write_tum(&dir.join("trajectory.txt"), &est)?;
+    let frames: Option<Vec<FrameRecord>> = out.results.as_ref().map(|rs| {
+        rs.iter()
+            .enumerate()
+            .map(|(i, r)| FrameRecord {
+                frame: i,
+                zone: Some(r.zone),
+                zone_score: Some(r.zone_score as f64),
+                status: r.status,
+                reason: r
+                    .reason
+                    .as_ref()
+                    .map_or(String::new(), |x| x.code().to_string()),
+                inliers: Some(r.inliers),
+                reprojection_rms_px: r
+                    .reprojection_rms_px
+                    .is_finite()
+                    .then_some(r.reprojection_rms_px),
+                time_ms: r.times.total_ms(),
+            })
+            .collect()
+    });
+    if let Some(f) = &frames {
+        write_frames_csv(&dir.join("frames.csv"), f)?;
+    }
+    let mut row = MethodRow {
+        method: out.name.clone(),
+        description: out.description.clone(),
+        frames: seq.len(),
+        localized: est.len(),
+        refined: out
+            .results
+            .as_ref()
+            .map(|rs| rs.iter().filter(|r| r.status == Status::Refined).count()),
+        mean_position_mm: None,
+        median_position_mm: None,
+        mean_orientation_deg: None,
+        median_orientation_deg: None,
+        refined_mean_position_mm: None,
+        refined_mean_orientation_deg: None,
+        ms_per_frame: out.ms_per_frame,
+    };
+    if est.is_empty() {
+        return Ok(row);
+    }
+    let evaluation = evaluate(
+        &EvalInputs {
+            gt: &seq.poses,
+            est: &est,
+            frames: frames.as_deref(),
+            gt_zones: None,
+        },
+        &EvalConfig::default(),
+    )
+    .with_context(|| format!("evaluating {}", out.name))?;
+    let m = &evaluation.metrics;
+    row.mean_position_mm = Some(m.position_mm.mean);
+    row.median_position_mm = Some(m.position_mm.median);
+    row.mean_orientation_deg = Some(m.orientation_deg.mean);
+    row.median_orientation_deg = Some(m.orientation_deg.median);
+    if let Some(r) = m.by_status.get("refined") {
+        row.refined_mean_position_mm = Some(r.position_mm.mean);
+        row.refined_mean_orientation_deg = Some(r.orientation_deg.mean);
+    }
+    endoloc_eval::write_results(
+        &evaluation,
+        &dir.join("eval"),
+        &WriteOptions {
+            force: true,
+            no_plots: false,
+            plot: Default::default(),
+            sources: Sources {
+                gt: seq.dir.join("poses.txt").display().to_string(),
+                est: dir.join("trajectory.txt").display().to_string(),
+                frames: frames
+                    .as_ref()
+                    .map(|_| dir.join("frames.csv").display().to_string()),
+                gt_zones: None,
+            },
+        },
+    )?;
+    Ok(row)
+}
+
+fn opt(v: Option<f64>, digits: usize) -> String {
+    v.map_or("—".into(), |x| format!("{x:.digits$}"))
+}
+
+fn pct(part: usize, whole: usize) -> String {
+    format!("{:.1}", 100.0 * part as f64 / whole.max(1) as f64)
+}
+
+const HEADER: [&str; 9] = [
+    "method",
+    "mean pos (mm)",
+    "median pos (mm)",
+    "mean rot (°)",
+    "median rot (°)",
+    "localized (%)",
+    "refined (%)",
+    "refined: mean pos (mm) / rot (°)",
+    "ms / frame",
+];
+
+fn cells(r: &MethodRow) -> Vec<String> {
+    vec![
+        r.method.clone(),
+        opt(r.mean_position_mm, 2),
+        opt(r.median_position_mm, 2),
+        opt(r.mean_orientation_deg, 2),
+        opt(r.median_orientation_deg, 2),
+        pct(r.localized, r.frames),
+        r.refined.map_or("—".into(), |k| pct(k, r.frames)),
+        match (r.refined_mean_position_mm, r.refined_mean_orientation_deg) {
+            (Some(p), Some(o)) => format!("{p:.2} / {o:.2}"),
+            _ => "—".into(),
+        },
+        format!("{:.1}", r.ms_per_frame),
+    ]
+}
+
+/// The rows as a markdown table.
+pub(super) fn markdown_table(rows: &[MethodRow]) -> String {
+    let mut s = format!("| {} |\n", HEADER.join(" | "));
+    s.push_str(&format!("|{}\n", "---|".repeat(HEADER.len())));
+    for r in rows {
+        s.push_str(&format!("| {} |\n", cells(r).join(" | ")));
+    }
+    s
+}
+
+/// The rows as an HTML table block.
+pub(super) fn html_table(rows: &[MethodRow]) -> Block {
+    Block::Table {
+        header: HEADER.iter().map(|s| s.to_string()).collect(),
+        rows: rows.iter().map(cells).collect(),
+    }
+}
+
+/// The rows as bars for [`endoloc_eval::plot_method_bars`].
+pub(super) fn bars(rows: &[MethodRow]) -> Vec<MethodBar> {
+    rows.iter()
+        .map(|r| MethodBar {
+            name: r.method.clone(),
+            mean_position_mm: r.mean_position_mm,
+            median_position_mm: r.median_position_mm,
+            mean_orientation_deg: r.mean_orientation_deg,
+            median_orientation_deg: r.median_orientation_deg,
+        })
+        .collect()
+}
+
+/// Writes text to `path` atomically.
+pub(super) fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_atomic(path, text.as_bytes())?;
+    Ok(())
+}
+
+/// Reads a PNG for embedding (a missing plot is reported, not fatal).
+pub(super) fn image_block(path: &Path, caption: &str) -> Option<Block> {
+    match std::fs::read(path) {
+        Ok(png) => Some(Block::Image {
+            caption: caption.into(),
+            png,
+        }),
+        Err(e) => {
+            eprintln!("warning: {} not embedded: {e}", path.display());
+            None
+        }
+    }
+}
+
+/// Refuses to work in a folder that holds another experiment's results unless `--force`,
+/// and creates it.
+pub(super) fn prepare_out(out: &Path, marker: &str, force: bool) -> Result<()> {
+    if out.exists() && !force {
+        let m = out.join(marker);
+        let is_same = m.is_file();
+        let empty = std::fs::read_dir(out)
+            .map(|mut d| d.next().is_none())
+            .unwrap_or(false);
+        if !is_same && !empty {
+            bail!(
+                "{} exists and is not a `{}` experiment folder; choose another --out or pass --force",
+                out.display(),
+                marker.trim_end_matches(".toml")
+            );
+        }
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    Ok(())
+}
+
+/// Position error (mm) and orientation error (degrees, geodesic angle of `R_estᵀ R_gt`) of
+/// one estimate, as `endoloc eval` computes them.
+pub(super) fn pose_error(est: &Pose, gt: &Pose) -> (f64, f64) {
+    let dp = (est.translation.vector - gt.translation.vector).norm();
+    let dr = (est.rotation.inverse() * gt.rotation).angle().to_degrees();
+    (dp, dr)
+}
