@@ -8,6 +8,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod camera;
+pub mod essential;
 pub mod localize;
 pub mod pnp;
 pub mod pose;
@@ -21,6 +22,10 @@ pub mod triangulate;
 pub mod validity;
 
 pub use camera::{Camera, Distortion};
+pub use essential::{
+    EssentialError, EssentialEstimate, EssentialRansacConfig, RecoveredPose, RelativePose,
+    five_point, ransac_essential, ransac_essential_normalized, recover_pose,
+};
 pub use localize::{Localization, LocalizeConfig, LocalizeError, localize_pose};
 pub use pnp::{RansacConfig, RansacError, RansacPose, ransac_pnp};
 pub use pose::{Pose, canonical_quaternion, orientation_error_deg, position_error_mm};
