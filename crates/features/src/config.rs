@@ -63,6 +63,10 @@ pub struct SurfConfig {
     /// [`FeatureError::ImageTooLarge`] instead of allocating gigabytes (memory use is about
     /// 32 bytes per pixel). Default 16 777 216 (4096 × 4096).
     pub max_pixels: usize,
+    /// Keep only the strongest keypoints (largest Hessian response), at most this many, before
+    /// orientation and description; 0 = keep all. A cap bounds the time per frame on richly
+    /// textured frames (description and matching grow with the count). Default 0.
+    pub max_keypoints: usize,
 }
 
 impl Default for SurfConfig {
@@ -76,6 +80,7 @@ impl Default for SurfConfig {
             extended: false,
             parallel: true,
             max_pixels: 1 << 24,
+            max_keypoints: 0,
         }
     }
 }
@@ -94,6 +99,11 @@ impl SurfConfig {
     /// Sets [`SurfConfig::scale_levels`].
     pub fn with_scale_levels(mut self, scale_levels: usize) -> Self {
         self.scale_levels = scale_levels;
+        self
+    }
+    /// Sets [`SurfConfig::max_keypoints`].
+    pub fn with_max_keypoints(mut self, max_keypoints: usize) -> Self {
+        self.max_keypoints = max_keypoints;
         self
     }
     /// Sets [`SurfConfig::initial_step`].

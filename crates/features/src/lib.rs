@@ -173,6 +173,20 @@ impl Surf {
     /// Fast-Hessian detection plus orientation assignment on a prepared integral image.
     pub fn detect_integral(&self, ii: &IntegralImage) -> Vec<Keypoint> {
         let mut kps = hessian::detect(ii, &self.config);
+        let cap = self.config.max_keypoints;
+        if cap > 0 && kps.len() > cap {
+            // Strongest first; ties broken by position so the result does not depend on the
+            // detector's (parallel) output order.
+            kps.sort_by(|a, b| {
+                b.response
+                    .abs()
+                    .total_cmp(&a.response.abs())
+                    .then(a.y.total_cmp(&b.y))
+                    .then(a.x.total_cmp(&b.x))
+                    .then(a.scale.total_cmp(&b.scale))
+            });
+            kps.truncate(cap);
+        }
         if !self.config.upright {
             let orient = |kp: &mut Keypoint| {
                 kp.orientation = orientation::orientation(ii, kp.x, kp.y, kp.scale);

@@ -61,3 +61,45 @@ fn blobs_are_found_at_their_position_and_scale() {
         );
     }
 }
+
+#[test]
+fn max_keypoints_keeps_the_strongest() {
+    // A grid of blobs of different contrast: the cap must keep the highest responses.
+    let img = GrayImage::from_fn(256, 256, |x, y| {
+        let (cx, cy) = ((x / 32) as f32 * 32.0 + 16.0, (y / 32) as f32 * 32.0 + 16.0);
+        let contrast = 40.0 + 20.0 * ((x / 32 + 3 * (y / 32)) % 8) as f32;
+        let (dx, dy) = (x as f32 - cx, y as f32 - cy);
+        let g = (-(dx * dx + dy * dy) / (2.0 * 16.0)).exp();
+        image::Luma([(60.0 + contrast * g) as u8])
+    });
+    let all = SurfConfig::default()
+        .with_threshold(50.0)
+        .init()
+        .unwrap()
+        .detect_and_describe(&img)
+        .unwrap();
+    assert!(
+        all.len() > 20,
+        "the grid gives many keypoints ({})",
+        all.len()
+    );
+    let capped = SurfConfig::default()
+        .with_threshold(50.0)
+        .with_max_keypoints(10)
+        .init()
+        .unwrap()
+        .detect_and_describe(&img)
+        .unwrap();
+    assert_eq!(capped.len(), 10);
+    let mut responses: Vec<f32> = all.iter().map(|f| f.keypoint.response.abs()).collect();
+    responses.sort_by(|a, b| b.total_cmp(a));
+    let weakest_kept = capped
+        .iter()
+        .map(|f| f.keypoint.response.abs())
+        .fold(f32::INFINITY, f32::min);
+    assert!(
+        weakest_kept >= responses[9] - 1e-6,
+        "{weakest_kept} vs {}",
+        responses[9]
+    );
+}
