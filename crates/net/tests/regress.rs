@@ -39,7 +39,7 @@ fn pose(i: usize) -> Pose {
 fn data() -> TrainingSet {
     let frames: Vec<_> = (0..FRAMES).map(frame).collect();
     let poses: Vec<_> = (0..FRAMES).map(pose).collect();
-    TrainingSet::from_images(&frames, &poses, tiny_config(1).backbone.input()).unwrap()
+    TrainingSet::from_images(&frames, &poses, None, tiny_config(1).backbone.input()).unwrap()
 }
 
 fn tiny_config(epochs: usize) -> RegressConfig {
@@ -224,12 +224,13 @@ fn offsetnet_learns_a_tiny_task_and_predicts_t_ref_times_offset() {
 fn bad_training_data_gives_clear_errors() {
     let cfg = tiny_config(1);
     let frames = vec![frame(0), image::GrayImage::new(10, 10)];
-    let err =
-        TrainingSet::from_images(&frames, &[pose(0), pose(1)], cfg.backbone.input()).unwrap_err();
+    let err = TrainingSet::from_images(&frames, &[pose(0), pose(1)], None, cfg.backbone.input())
+        .unwrap_err();
     assert!(err.to_string().contains("training frame 1"), "{err}");
-    let err = TrainingSet::from_images(&[frame(0)], &[], cfg.backbone.input()).unwrap_err();
+    let err = TrainingSet::from_images(&[frame(0)], &[], None, cfg.backbone.input()).unwrap_err();
     assert!(matches!(err, NetError::Config(_)), "{err}");
-    let one = TrainingSet::from_images(&[frame(0)], &[pose(0)], cfg.backbone.input()).unwrap();
+    let one =
+        TrainingSet::from_images(&[frame(0)], &[pose(0)], None, cfg.backbone.input()).unwrap();
     assert!(matches!(
         train_posenet(&cfg, &one, &mut |_| {}),
         Err(NetError::Config(_))

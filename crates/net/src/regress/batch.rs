@@ -2,11 +2,12 @@
 //! batches as tensors.
 
 use super::RegressConfig;
-use super::roll::roll_image;
+use super::view::{ViewIntrinsics, rotate_view, view_turn};
 use crate::augment::augment;
 use crate::preprocess::{InputSize, standardize};
 use crate::train::ImageCache;
 use burn::tensor::{Device, Tensor, TensorData};
+use nalgebra::UnitQuaternion;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -21,27 +22,39 @@ pub(crate) fn split_holdout(n: usize, every: usize) -> (Vec<usize>, Vec<usize>) 
     (0..n).partition(|&f| !is_held(f, every))
 }
 
-/// A query image of cached frame `f`: photometric augmentation and a roll drawn from
-/// `seed`, standardised. Returns the pixels and the roll angle (radians; 0 without roll).
+/// A query image of cached frame `f`: photometric augmentation and a view turn drawn from
+/// `seed` (roll; pitch and yaw only with intrinsics `k`), standardised. Returns the pixels and
+/// the turn `ΔR` (identity without view augmentation): the label's rotation is `R_wc · ΔR`.
 pub(crate) fn query_input(
     cache: &ImageCache,
     f: usize,
     cfg: &RegressConfig,
+    k: Option<&ViewIntrinsics>,
     seed: u64,
-) -> (Vec<f32>, f64) {
+) -> (Vec<f32>, UnitQuaternion<f64>) {
     let (w, h) = (cache.size.width as usize, cache.size.height as usize);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let theta = if cfg.roll_deg > 0.0 {
-        rng.random_range(-cfg.roll_deg..=cfg.roll_deg).to_radians()
+    let mut draw = |limit_deg: f32| -> f64 {
+        if limit_deg > 0.0 {
+            rng.random_range(-limit_deg..=limit_deg).to_radians() as f64
+        } else {
+            0.0
+        }
+    };
+    let roll = draw(cfg.roll_deg);
+    let (pitch, yaw) = if k.is_some() {
+        (draw(cfg.tilt_deg), draw(cfg.tilt_deg))
     } else {
-        0.0
+        (0.0, 0.0)
     };
     let mut v = augment(cache.image(f), w, h, &cfg.photometric(), &mut rng);
-    if theta != 0.0 {
-        v = roll_image(&v, w, h, theta);
+    let turn = view_turn(roll, pitch, yaw);
+    if roll != 0.0 || pitch != 0.0 || yaw != 0.0 {
+        let centred = ViewIntrinsics::centred(w, h, w as f64 / 2.0);
+        v = rotate_view(&v, w, h, k.unwrap_or(&centred), &turn.to_rotation_matrix());
     }
     standardize(&mut v);
-    (v, theta as f64)
+    (v, turn)
 }
 
 /// Queries for `frames` in parallel, each from its own seed drawn sequentially from `rng`.
@@ -49,13 +62,14 @@ pub(crate) fn query_batch(
     cache: &ImageCache,
     frames: &[usize],
     cfg: &RegressConfig,
+    k: Option<&ViewIntrinsics>,
     rng: &mut ChaCha8Rng,
-) -> (Vec<f32>, Vec<f64>) {
+) -> (Vec<f32>, Vec<UnitQuaternion<f64>>) {
     let seeds: Vec<u64> = frames.iter().map(|_| rng.random()).collect();
-    let parts: Vec<(Vec<f32>, f64)> = frames
+    let parts: Vec<(Vec<f32>, UnitQuaternion<f64>)> = frames
         .par_iter()
         .zip(seeds.par_iter())
-        .map(|(&f, &s)| query_input(cache, f, cfg, s))
+        .map(|(&f, &s)| query_input(cache, f, cfg, k, s))
         .collect();
     let mut px = Vec::with_capacity(frames.len() * cache.size.pixels());
     let mut rolls = Vec::with_capacity(frames.len());

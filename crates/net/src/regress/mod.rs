@@ -15,9 +15,11 @@
 //! edge lies as far as possible from the training orientations.
 //!
 //! Geometric augmentation changes the pose an image shows, so only the photometric part of
-//! [`crate::augment`] is used, plus a *roll* augmentation with the label corrected exactly
-//! ([`roll`]): the image rotated about its centre by θ is the view of the camera rotated about
-//! its optical axis, `R_wc · R_z(θ)`.
+//! [`crate::augment`] is used, plus a *view* augmentation with the label corrected exactly
+//! ([`view`]): the camera turned about its own centre by `ΔR` (a roll about the optical axis,
+//! and with known intrinsics a small pitch and yaw) sees the image warped by the homography
+//! `K ΔRᵀ K⁻¹`, and its rotation label becomes `R_wc · ΔR`. The test pass through a colon
+//! differs from the training pass by such turns (gaze, roll) and a small lateral offset.
 //!
 //! A trained model is one folder ([`io`]): `regress.toml` (what it is, its config, the
 //! normaliser, the training image size) and `weights.safetensors`, written to `DIR.partial`
@@ -29,7 +31,7 @@ pub mod loss;
 pub mod normalize;
 pub mod offsetnet;
 pub mod posenet;
-pub mod roll;
+pub mod view;
 
 pub use io::{RegressMethod, RegressModelFile};
 pub use loss::{posenet_loss, posenet_loss_sample};
@@ -47,7 +49,7 @@ use burn::nn::{Linear, LinearConfig};
 use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor, TensorData};
 use endoloc_data::Sequence;
-use endoloc_geometry::Pose;
+use endoloc_geometry::{Camera, Pose};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -154,10 +156,12 @@ pub struct RegressConfig {
     /// Photometric augmentation of the query images; its geometric fields (`rotation_deg`,
     /// `scale`, `translate`) are ignored because they would change the pose the image shows.
     pub augment: AugmentConfig,
-    /// Roll augmentation: the query image is rotated about its centre by an angle uniform in
-    /// `±roll_deg` degrees and its rotation label by the same angle about the optical axis
-    /// (exact for a principal point at the image centre and square pixels). 0 disables it.
+    /// View augmentation, roll: the query camera turns about its optical axis by an angle
+    /// uniform in `±roll_deg` degrees, image and label alike ([`view`]). 0 disables it.
     pub roll_deg: f32,
+    /// View augmentation, tilt: pitch and yaw each uniform in `±tilt_deg` degrees. Needs the
+    /// training camera ([`TrainingSet::camera`]); skipped with a warning without one.
+    pub tilt_deg: f32,
     /// OffsetNet: training pairs are (frame i, frame j) with `|i − j| ≤ pair_reach_frames`
     /// along the training trajectory.
     pub pair_reach_frames: usize,
@@ -192,6 +196,7 @@ impl Default for RegressConfig {
                 ..AugmentConfig::default()
             },
             roll_deg: 20.0,
+            tilt_deg: 8.0,
             pair_reach_frames: 40,
             holdout_every: 0,
             validate_every_epochs: 10,
@@ -249,6 +254,12 @@ impl RegressConfig {
                 self.roll_deg
             )));
         }
+        if !(0.0..=45.0).contains(&self.tilt_deg) {
+            return Err(NetError::Config(format!(
+                "tilt_deg {} must be in [0, 45]",
+                self.tilt_deg
+            )));
+        }
         if self.inference_batch == 0 {
             return Err(NetError::Config(
                 "inference_batch must be at least 1".into(),
@@ -279,16 +290,20 @@ pub struct TrainingSet {
     pub frame_width: u32,
     /// Height of the original frames, pixels.
     pub frame_height: u32,
+    /// The camera of the frames (needed for tilt augmentation).
+    pub camera: Option<Camera>,
 }
 
 impl TrainingSet {
-    /// Loads every frame of `seq` at `size` (in parallel), with its pose.
+    /// Loads every frame of `seq` (taken with `camera`) at `size` (in parallel), with its
+    /// pose.
     ///
     /// # Errors
     /// [`NetError::Data`] for the first unreadable image; [`NetError::Config`] for an empty
-    /// sequence.
+    /// sequence; [`NetError::Image`] when the frames are not of the camera's size.
     pub fn from_sequence(
         seq: &Sequence,
+        camera: &Camera,
         size: InputSize,
         progress: &mut dyn FnMut(usize),
     ) -> Result<Self, NetError> {
@@ -299,16 +314,30 @@ impl TrainingSet {
             )));
         }
         let first = seq.load_gray(0)?;
+        if first.dimensions() != (camera.width, camera.height) {
+            return Err(NetError::Image {
+                path: seq.image_paths.first().cloned().unwrap_or_default(),
+                message: format!(
+                    "{}x{} pixels but the camera is {}x{}",
+                    first.width(),
+                    first.height(),
+                    camera.width,
+                    camera.height
+                ),
+            });
+        }
         let images = ImageCache::from_sequence(seq, size, progress)?;
         Ok(TrainingSet {
             images,
             poses: seq.poses.iter().map(|p| p.pose).collect(),
             frame_width: first.width(),
             frame_height: first.height(),
+            camera: Some(*camera),
         })
     }
 
-    /// A training set of in-memory grey frames (all of one size) and their poses.
+    /// A training set of in-memory grey frames (all of one size) and their poses, with the
+    /// camera when known.
     ///
     /// # Errors
     /// [`NetError::Config`] when the counts differ or there are no frames;
@@ -316,6 +345,7 @@ impl TrainingSet {
     pub fn from_images(
         frames: &[image::GrayImage],
         poses: &[Pose],
+        camera: Option<&Camera>,
         size: InputSize,
     ) -> Result<Self, NetError> {
         let Some(first) = frames.first() else {
@@ -353,6 +383,7 @@ impl TrainingSet {
             poses: poses.to_vec(),
             frame_width: w,
             frame_height: h,
+            camera: camera.copied(),
         })
     }
 
@@ -366,7 +397,27 @@ impl TrainingSet {
         self.poses.is_empty()
     }
 
+    /// Intrinsics of the cached images for view augmentation (`None` without a camera or for
+    /// a camera of another size than the frames).
+    pub(crate) fn view_intrinsics(&self) -> Option<view::ViewIntrinsics> {
+        let c = self.camera.as_ref()?;
+        if (c.width, c.height) != (self.frame_width, self.frame_height) {
+            return None;
+        }
+        Some(view::ViewIntrinsics::resized(
+            c,
+            self.images.size.width,
+            self.images.size.height,
+        ))
+    }
+
     pub(crate) fn check(&self, cfg: &RegressConfig, min_frames: usize) -> Result<(), NetError> {
+        if cfg.tilt_deg > 0.0 && self.view_intrinsics().is_none() {
+            tracing::warn!(
+                "no camera of the training frames' size: tilt augmentation (tilt_deg {}) skipped",
+                cfg.tilt_deg
+            );
+        }
         if self.images.len() != self.poses.len() {
             return Err(NetError::Config(format!(
                 "{} cached images but {} poses",

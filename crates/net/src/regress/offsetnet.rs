@@ -10,7 +10,7 @@
 //!
 //! Training pairs: a training frame `i` as the reference (not augmented, as a retrieved
 //! training image is at test time) and a frame `j` with `|i − j| ≤ pair_reach_frames` as the
-//! query (photometric and roll augmentation, its label rolled too).
+//! query (photometric and view augmentation, its label turned too).
 //!
 //! Inference: the caller retrieves the reference. The intended reference is the training frame
 //! whose Siamese descriptor is nearest to the test image's,
@@ -24,7 +24,7 @@ use super::batch::{
 };
 use super::io::{self, RegressMethod, RegressModelFile};
 use super::posenet::mean_errors;
-use super::roll::rolled_rotation;
+use super::view::rotated_rotation;
 use super::{
     PoseHead, PoseNormalizer, RegressConfig, RegressEpoch, RegressPhase, RegressProgress,
     TrainingSet, check_frame, posenet_loss, scaled_features, tensor_rows,
@@ -344,6 +344,7 @@ pub fn train_offsetnet(
     let steps_per_epoch = sched.steps_per_epoch();
     let total_steps = steps_per_epoch * sched.epochs;
     let size = data.images.size;
+    let intrinsics = data.view_intrinsics();
     let t0 = Instant::now();
     let mut history = Vec::with_capacity(sched.epochs);
     let mut last_loss = None;
@@ -362,16 +363,17 @@ pub fn train_offsetnet(
                 .map(|&i| partner(i, rng.random_range(-r..=r)))
                 .collect();
             let ref_px = clean_batch(&data.images, &refs);
-            let (query_px, rolls) = query_batch(&data.images, &queries, cfg, &mut rng);
+            let (query_px, turns) =
+                query_batch(&data.images, &queries, cfg, intrinsics.as_ref(), &mut rng);
             let (xs, qs): (Vec<[f32; 3]>, Vec<[f32; 4]>) = refs
                 .iter()
                 .zip(&queries)
-                .zip(&rolls)
-                .map(|((&i, &j), &theta)| {
+                .zip(&turns)
+                .map(|((&i, &j), turn)| {
                     let p = &data.poses[j];
-                    let rolled =
-                        pose_from_parts(p.translation.vector, rolled_rotation(&p.rotation, theta));
-                    nz.target(&offset_between(&data.poses[i], &rolled))
+                    let turned =
+                        pose_from_parts(p.translation.vector, rotated_rotation(&p.rotation, turn));
+                    nz.target(&offset_between(&data.poses[i], &turned))
                 })
                 .unzip();
             let (x_hat, q_hat) = net.forward(

@@ -7,9 +7,10 @@
 //! ```no_run
 //! # fn main() -> Result<(), endoloc_net::NetError> {
 //! use endoloc_net::regress::{PoseNetModel, RegressConfig, TrainingSet, train_posenet};
-//! let seq = endoloc_data::Sequence::open(std::path::Path::new("data/train"))?;
+//! let ds = endoloc_data::Dataset::open(std::path::Path::new("data"))?;
+//! let (seq, camera) = (ds.sequence("train")?, ds.meta.camera);
 //! let cfg = RegressConfig::default();
-//! let data = TrainingSet::from_sequence(&seq, cfg.backbone.input(), &mut |_| {})?;
+//! let data = TrainingSet::from_sequence(&seq, &camera, cfg.backbone.input(), &mut |_| {})?;
 //! let model = train_posenet(&cfg, &data, &mut |_| {})?;
 //! model.save(std::path::Path::new("posenet"), false)?;
 //! let pose = PoseNetModel::load(std::path::Path::new("posenet"))?.predict(&seq.load_gray(0)?)?;
@@ -20,7 +21,7 @@ use super::batch::{
     clean_batch, draw_frames, images_tensor, query_batch, rows_tensor, scalar, split_holdout,
 };
 use super::io::{self, RegressMethod, RegressModelFile};
-use super::roll::rolled_rotation;
+use super::view::rotated_rotation;
 use super::{
     PoseHead, PoseNormalizer, RegressConfig, RegressEpoch, RegressPhase, RegressProgress,
     TrainingSet, check_frame, posenet_loss, scaled_features, tensor_rows,
@@ -232,8 +233,8 @@ pub(crate) fn mean_errors(est: &[Pose], truth: &[Pose]) -> (f64, f64) {
 /// `cfg.holdout_every > 1`).
 ///
 /// Each step draws `cfg.schedule.batch` training frames (without replacement within the
-/// step), augments them ([`RegressConfig::augment`] photometric part, roll with the label
-/// rolled too), and takes an Adam step on [`posenet_loss`]. Same seed and data → same weights.
+/// step), augments them ([`RegressConfig::augment`] photometric part, view turns with the label
+/// turned too), and takes an Adam step on [`posenet_loss`]. Same seed and data → same weights.
 ///
 /// # Errors
 /// [`NetError::Config`] for a bad config or data (fewer than 2 frames, a cache at another
@@ -259,6 +260,7 @@ pub fn train_posenet(
     let steps_per_epoch = sched.steps_per_epoch();
     let total_steps = steps_per_epoch * sched.epochs;
     let size = data.images.size;
+    let intrinsics = data.view_intrinsics();
     let t0 = Instant::now();
     let mut history = Vec::with_capacity(sched.epochs);
     let mut last_loss = None;
@@ -272,15 +274,16 @@ pub fn train_posenet(
             let b = remaining.min(sched.batch).max(2);
             remaining = remaining.saturating_sub(b);
             let frames = draw_frames(&train_frames, b, &mut rng);
-            let (px, rolls) = query_batch(&data.images, &frames, cfg, &mut rng);
+            let (px, turns) =
+                query_batch(&data.images, &frames, cfg, intrinsics.as_ref(), &mut rng);
             let (xs, qs): (Vec<[f32; 3]>, Vec<[f32; 4]>) = frames
                 .iter()
-                .zip(&rolls)
-                .map(|(&f, &theta)| {
+                .zip(&turns)
+                .map(|(&f, turn)| {
                     let p = &data.poses[f];
                     nz.target(&pose_from_parts(
                         p.translation.vector,
-                        rolled_rotation(&p.rotation, theta),
+                        rotated_rotation(&p.rotation, turn),
                     ))
                 })
                 .unzip();
