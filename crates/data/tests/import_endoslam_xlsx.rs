@@ -196,7 +196,9 @@ fn xlsx_is_found_in_poses_folder_and_sheet_can_be_named() {
     let e = read_endoslam(&src, &notes).unwrap_err();
     let m = e.to_string();
     assert!(
-        m.contains("Colon-IV.xlsx") && m.contains("sheet \"Notes\" row 1") && m.contains("tx"),
+        m.contains("Colon-IV.xlsx")
+            && m.contains("sheet \"Notes\" row 1")
+            && m.contains("no column \"imageframe\""),
         "{m}"
     );
 
@@ -362,4 +364,39 @@ fn empty_and_broken_workbooks_are_errors_not_panics() {
     // A missing file: an I/O error naming it.
     let m = error_of(&src, &tmp.path().join("absent.xlsx")).to_string();
     assert!(m.contains("absent.xlsx") && m.contains("I/O error"), "{m}");
+}
+
+/// A workbook written by openpyxl (the writer behind pandas' `to_excel`), committed with the
+/// script that made it (`tests/fixtures/make_endoslam_xlsx.py`): found on its second sheet.
+#[test]
+fn reads_a_workbook_written_by_openpyxl() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = recording(tmp.path());
+    let xlsx =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/endoslam_exvivo_openpyxl.xlsx");
+    let seq = read_endoslam(&src, &config(&xlsx, Units::Mm)).unwrap();
+    assert_eq!(seq.frames.len(), 3);
+    for (k, f) in seq.frames.iter().enumerate() {
+        let i = k + 1;
+        assert!(f.image.ends_with(format!("{i:04}.png")));
+        let p = &f.pose.pose;
+        let t = Vector3::new(1.5 * i as f64, -2.0, 10.0 + i as f64);
+        assert!((p.translation.vector - t).norm() < 1e-12, "frame {i}");
+        let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.1 * i as f64);
+        assert!(p.rotation.angle_to(&q) < 1e-12, "frame {i}");
+    }
+    let m = read_endoslam(
+        &src,
+        &EndoSlamConfig {
+            sheet: Some("Info".into()),
+            ..config(&xlsx, Units::Mm)
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        m.contains("endoslam_exvivo_openpyxl.xlsx:1: sheet \"Info\" row 1 (header)")
+            && m.contains("no column \"imageframe\""),
+        "{m}"
+    );
 }

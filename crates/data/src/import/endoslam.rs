@@ -174,7 +174,11 @@ pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequ
     }
     let scale = config.units.mm_per_unit();
     let mut notes = Vec::new();
-    let frames = if table.header.iter().any(|h| h == "imageframe") {
+    let has = |name: &str| table.header.iter().any(|h| h == name);
+    // An ex-vivo table has ImageFrame; a workbook without UnityCam's `tX` is taken as one too,
+    // so that its error lists the ex-vivo columns.
+    let ex_vivo = has("imageframe") || (super::table::is_xlsx(&pose_path) && !has("tx"));
+    let frames = if ex_vivo {
         let c = table.columns(EX_VIVO_COLUMNS)?;
         // key → (line, pose) for every row.
         let mut by_key: BTreeMap<String, (usize, endoloc_geometry::Pose)> = BTreeMap::new();

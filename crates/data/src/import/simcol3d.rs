@@ -298,7 +298,7 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
             return Err(DataError::invalid(
                 &frames_dir,
                 format!(
-                    "{} has no depth map (Depth_{n:04}.png) while {} other frames have one; expected depth for every frame or none (or do not import depth)",
+                    "{} has no depth map (Depth_{n:04}.png) while {} other frames have one; expected depth for every frame or none (--no-depth skips depth)",
                     p.display(),
                     depth.len()
                 ),
