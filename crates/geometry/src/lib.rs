@@ -24,7 +24,7 @@ pub mod validity;
 pub use camera::{Camera, Distortion};
 pub use essential::{
     EssentialError, EssentialEstimate, EssentialRansacConfig, RecoveredPose, RelativePose,
-    five_point, ransac_essential, ransac_essential_normalized, recover_pose,
+    five_point, ransac_essential, ransac_essential_normalized, recover_pose, refine_relative_pose,
 };
 pub use localize::{Localization, LocalizeConfig, LocalizeError, localize_pose};
 pub use pnp::{RansacConfig, RansacError, RansacPose, ransac_pnp};
