@@ -366,8 +366,8 @@ pub fn five_point(x1: &[Vector3<f64>; 5], x2: &[Vector3<f64>; 5]) -> Vec<Matrix3
         }
     }
     let mut half_trace = [0.0; 20];
-    for i in 0..3 {
-        add_scaled(&mut half_trace, &eet[i][i], 0.5);
+    for (i, row) in eet.iter().enumerate() {
+        add_scaled(&mut half_trace, &row[i], 0.5);
     }
     // E Eᵀ E − ½ tr(E Eᵀ) E = 0: nine cubic equations.
     for i in 0..3 {
