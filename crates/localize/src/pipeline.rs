@@ -38,6 +38,11 @@ pub struct LocalizerConfig {
     /// paper, which trusts the top zone): a misclassified frame usually fails to register in
     /// the wrong zone's map and succeeds in the right one. 1 = the paper's behaviour.
     pub candidate_zones: usize,
+    /// Live mode only (beyond the paper): after a `refined` frame, the next frame is first
+    /// registered from that pose, in the zone it lies in, before the classified zones are
+    /// tried — a scope moves little between frames at 30 fps. 0 = off; otherwise the number
+    /// of frames a refined pose stays usable as the prior.
+    pub track_frames: usize,
 }
 
 impl Default for LocalizerConfig {
@@ -49,6 +54,7 @@ impl Default for LocalizerConfig {
             localize: LocalizeConfig::new(),
             temporal: TemporalConfig::default(),
             candidate_zones: 3,
+            track_frames: 5,
         }
     }
 }
@@ -200,9 +206,23 @@ impl Localizer {
         features: &[endoloc_features::Feature],
         zone: usize,
         zone_score: f32,
-        mut times: StageTimes,
+        times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
         let prior = self.classifier.zones().zones[zone].median_pose;
+        self.register_from(features, zone, &prior, zone_score, times)
+    }
+
+    /// Matches `features` to the map points of `zone` (and its neighbours) and refines from
+    /// `prior` (`T_wc`, mm); the validity check measures the jump from `prior`.
+    fn register_from(
+        &self,
+        features: &[endoloc_features::Feature],
+        zone: usize,
+        prior: &Pose,
+        zone_score: f32,
+        mut times: StageTimes,
+    ) -> Result<FrameResult, LocalizeError> {
+        let prior = *prior;
         let t = Instant::now();
         let lo = zone.saturating_sub(self.cfg.neighbour_zones);
         let hi = (zone + self.cfg.neighbour_zones + 1).min(self.map.zones.len());
@@ -373,6 +393,117 @@ impl Localizer {
     /// The SURF extractor of test frames (as configured), for callers that cache features.
     pub fn surf(&self) -> &Surf {
         &self.surf
+    }
+}
+
+/// State of a live stream ([`Localizer::localize_live`]): the causal zone filter and the
+/// last refined pose.
+#[derive(Debug, Clone)]
+pub struct LiveState {
+    filter: TemporalFilter,
+    /// Last refined pose (`T_wc`, mm) and its frame number.
+    last: Option<(Pose, usize)>,
+    /// Frames seen so far.
+    frame: usize,
+}
+
+impl LiveState {
+    /// The frames seen so far.
+    pub fn frames(&self) -> usize {
+        self.frame
+    }
+
+    /// Forgets the past (a new video).
+    pub fn reset(&mut self) {
+        self.filter.reset();
+        self.last = None;
+        self.frame = 0;
+    }
+}
+
+impl Localizer {
+    /// A fresh state for a live stream.
+    pub fn live_state(&self) -> LiveState {
+        LiveState {
+            filter: self.temporal_filter(),
+            last: None,
+            frame: 0,
+        }
+    }
+
+    /// Localizes the next frame of a live stream (frames in order, one at a time): classify,
+    /// fold the prediction into the causal zone filter, then — when a recent frame was
+    /// `refined` and [`LocalizerConfig::track_frames`] > 0 — register from that pose first;
+    /// otherwise (or if that fails) from the filtered zone and the candidate zones.
+    ///
+    /// # Errors
+    /// As [`Localizer::localize`].
+    pub fn localize_live(
+        &self,
+        state: &mut LiveState,
+        img: &image::GrayImage,
+    ) -> Result<FrameResult, LocalizeError> {
+        let t = Instant::now();
+        let pred = self.classify(img)?;
+        let zone_ms = ms(t);
+        let t = Instant::now();
+        let features = self.surf.detect_and_describe(img)?;
+        let times = StageTimes {
+            zone_ms,
+            surf_ms: ms(t),
+            ..Default::default()
+        };
+        self.localize_live_features(state, &features, &pred, times)
+    }
+
+    /// [`Localizer::localize_live`] for a frame already classified (`pred`, not yet folded
+    /// into the filter) and described (`features`).
+    ///
+    /// # Errors
+    /// As [`Localizer::localize_features`].
+    pub fn localize_live_features(
+        &self,
+        state: &mut LiveState,
+        features: &[Feature],
+        pred: &ZonePrediction,
+        times: StageTimes,
+    ) -> Result<FrameResult, LocalizeError> {
+        let frame = state.frame;
+        state.frame += 1;
+        let zone = state.filter.update(pred);
+        let recent = state
+            .last
+            .filter(|(_, at)| self.cfg.track_frames > 0 && frame - at <= self.cfg.track_frames);
+        let mut spent = StageTimes::default();
+        if let Some((pose, _)) = recent
+            && let Some(z) = self.classifier.truth_zone(&pose)
+        {
+            let score = pred.zone_scores.get(z).copied().unwrap_or(f32::NAN);
+            let r = self.register_from(features, z, &pose, score, times)?;
+            if r.status == Status::Refined {
+                self.remember(state, &r, frame);
+                return Ok(r);
+            }
+            spent.matching_ms += r.times.matching_ms;
+            spent.refine_ms += r.times.refine_ms;
+        }
+        let mut r = self.localize_features(features, pred, zone, times)?;
+        r.times.matching_ms += spent.matching_ms;
+        r.times.refine_ms += spent.refine_ms;
+        self.remember(state, &r, frame);
+        Ok(r)
+    }
+
+    fn remember(&self, state: &mut LiveState, r: &FrameResult, frame: usize) {
+        if r.status != Status::Refined {
+            return;
+        }
+        if let Some(pose) = r.t_wc {
+            state.last = Some((pose, frame));
+            if let Some(z) = self.classifier.truth_zone(&pose) {
+                state.filter.anchor(z);
+            }
+        }
     }
 }
 

@@ -160,6 +160,24 @@ impl TemporalFilter {
         &self.belief
     }
 
+    /// Sets the belief to `zone` with probability `1 − ε` (the rest spread evenly), e.g. when a
+    /// frame was localized geometrically and its zone is known; `ε = 0.05`. A zone out of
+    /// range is ignored.
+    pub fn anchor(&mut self, zone: usize) {
+        if zone >= self.zones {
+            return;
+        }
+        const EPS: f64 = 0.05;
+        let rest = if self.zones > 1 {
+            EPS / (self.zones - 1) as f64
+        } else {
+            0.0
+        };
+        self.belief.fill(rest);
+        self.belief[zone] = if self.zones > 1 { 1.0 - EPS } else { 1.0 };
+        self.started = true;
+    }
+
     /// Folds in one frame's prediction and returns the most probable zone now.
     pub fn update(&mut self, pred: &ZonePrediction) -> usize {
         let n = self.zones;
@@ -274,6 +292,28 @@ mod tests {
             nearest_frame: 0,
             distance: 0.2,
         }
+    }
+
+    #[test]
+    fn anchor_overrides_a_wrong_belief() {
+        let zones = 10;
+        let mut f = TemporalFilter::new(zones, TemporalConfig::default());
+        for _ in 0..20 {
+            f.update(&pred(2, zones));
+        }
+        f.anchor(7);
+        assert!((f.belief().iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        assert!(f.belief()[7] > 0.9);
+        // An ambiguous frame now stays at the anchored zone.
+        let flat = ZonePrediction {
+            zone: 2,
+            zone_scores: vec![0.5; zones],
+            nearest_frame: 0,
+            distance: 0.5,
+        };
+        assert_eq!(f.update(&flat), 7);
+        f.anchor(99); // ignored
+        assert_eq!(f.belief().len(), zones);
     }
 
     #[test]

@@ -130,9 +130,14 @@ pub struct LocalizeArgs {
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Live mode: frames one at a time, in order, with causal temporal zone filtering, as a
-    /// scope would deliver them (no look-ahead; one frame in flight).
+    /// scope would deliver them (no look-ahead; one frame in flight). After a refined frame
+    /// the next one is first registered from that pose (see --track-frames).
     #[arg(long)]
     pub live: bool,
+    /// Live mode: frames a refined pose stays usable as the next frames' prior (0: every frame
+    /// starts from its zone's median pose, as in the paper).
+    #[arg(long, default_value_t = 5)]
+    pub track_frames: usize,
     /// Map points also come from this many zones on each side of the classified one.
     #[arg(long, default_value_t = 1)]
     pub neighbours: usize,
@@ -178,6 +183,7 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
     let mut cfg = LocalizerConfig {
         neighbour_zones: args.neighbours,
         candidate_zones: args.candidate_zones,
+        track_frames: args.track_frames,
         surf: map.config.surf.clone(),
         ..LocalizerConfig::default()
     };
@@ -189,15 +195,11 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
     let bar = ui::progress_bar(n as u64, if args.live { "live" } else { "localize" });
     let t = std::time::Instant::now();
     let results: Vec<FrameResult> = if args.live {
-        let mut filter = localizer.temporal_filter();
+        let mut state = localizer.live_state();
         let mut out = Vec::with_capacity(n);
         for i in 0..n {
             let img = seq.load_gray(i)?;
-            let t0 = std::time::Instant::now();
-            let pred = localizer.classify(&img)?;
-            let zone = filter.update(&pred);
-            let zone_ms = t0.elapsed().as_secs_f64() * 1e3;
-            out.push(localizer.localize_with_prediction(&img, &pred, zone, zone_ms)?);
+            out.push(localizer.localize_live(&mut state, &img)?);
             bar.inc(1);
         }
         out

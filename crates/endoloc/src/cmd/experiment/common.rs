@@ -16,7 +16,7 @@ use endoloc_features::{Feature, SurfConfig};
 use endoloc_geometry::{Pose, Status};
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, StageTimes};
-use endoloc_net::{TemporalFilter, ZoneClassifier, ZonePrediction, viterbi};
+use endoloc_net::{ZoneClassifier, ZonePrediction, viterbi};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -228,7 +228,8 @@ pub(super) fn predict_zones(
 pub(super) enum ZoneChoice {
     /// Each frame alone: the classifier's top zone (the paper).
     PerFrame,
-    /// Causal HMM forward filter, frames in order (`--live`).
+    /// Frames in order (`--live`): causal HMM forward filter, and registration from the last
+    /// refined pose first.
     Live,
     /// Offline Viterbi over the whole test pass.
     Viterbi,
@@ -254,12 +255,30 @@ pub(super) fn run_endoloc(
     };
     let localizer = Localizer::new(classifier, map, cfg)?;
     let n = preds.len();
-    let chosen: Vec<usize> = match choice {
-        ZoneChoice::PerFrame => preds.iter().map(|p| p.zone).collect(),
-        ZoneChoice::Live => {
-            let mut filter: TemporalFilter = localizer.temporal_filter();
-            preds.iter().map(|p| filter.update(p)).collect()
+    let times = |i: usize| StageTimes {
+        zone_ms,
+        surf_ms: features.surf_ms[i],
+        ..Default::default()
+    };
+    if choice == ZoneChoice::Live {
+        // One frame at a time, in order: the state carries the zone filter and the last pose.
+        let bar = ui::progress_bar(n as u64, "live");
+        let mut state = localizer.live_state();
+        let mut out = Vec::with_capacity(n);
+        for i in 0..n {
+            out.push(localizer.localize_live_features(
+                &mut state,
+                &features.features[i],
+                &preds[i],
+                times(i),
+            )?);
+            bar.inc(1);
         }
+        bar.finish_and_clear();
+        return Ok(out);
+    }
+    let chosen: Vec<usize> = match choice {
+        ZoneChoice::PerFrame | ZoneChoice::Live => preds.iter().map(|p| p.zone).collect(),
         ZoneChoice::Viterbi => viterbi(
             preds,
             localizer.classifier().zone_count(),
@@ -270,12 +289,8 @@ pub(super) fn run_endoloc(
     let results: Result<Vec<FrameResult>> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let times = StageTimes {
-                zone_ms,
-                surf_ms: features.surf_ms[i],
-                ..Default::default()
-            };
-            let r = localizer.localize_features(&features.features[i], &preds[i], chosen[i], times);
+            let r =
+                localizer.localize_features(&features.features[i], &preds[i], chosen[i], times(i));
             bar.inc(1);
             Ok(r?)
         })

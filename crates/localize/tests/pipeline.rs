@@ -1,0 +1,246 @@
+//! The localizer end to end on a simulated colon, with the zone decisions controlled by the
+//! test (the network is untrained: its predictions are replaced by chosen ones), so that the
+//! geometric half is checked on its own:
+//! - with the true zone, refined poses are within millimetres of the ground truth;
+//! - in live mode, tracking from the last refined pose keeps frames refined even when the
+//!   classifier points to a far-away zone, and without tracking they are not;
+//! - a textureless frame is `init_only` with the reason, not an error.
+
+use burn::module::Module;
+use endoloc_data::Dataset;
+use endoloc_geometry::{Pose, Status};
+use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, MapConfig, StageTimes, build_map};
+use endoloc_net::database::{DescriptorDatabase, ScoreRule};
+use endoloc_net::model::{FORMAT_VERSION, ModelConfig};
+use endoloc_net::{
+    BackboneConfig, TemporalConfig, TrainConfig, UniformBy, ZoneClassifier, ZoneConfig,
+    ZonePrediction, ZoneTable,
+};
+use endoloc_sim::{Preset, SimConfig};
+
+const ZONES: usize = 20;
+
+struct Fixture {
+    _tmp: tempfile::TempDir,
+    ds: Dataset,
+    zones: ZoneTable,
+    map: endoloc_localize::Map,
+    train_poses: Vec<Pose>,
+}
+
+/// One simulation for all tests of this file.
+fn fixture() -> &'static Fixture {
+    static FIXTURE: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
+    FIXTURE.get_or_init(make_fixture)
+}
+
+fn make_fixture() -> Fixture {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut cfg = SimConfig::preset(Preset::Small).with_seed(3);
+    cfg.train.frames = 300;
+    cfg.test.frames = 300;
+    let out = tmp.path().join("ds");
+    endoloc_sim::simulate(&cfg, &out, false, &|_| {}).unwrap();
+    let ds = Dataset::open(&out).unwrap();
+    let train = ds.sequence("train").unwrap();
+    let zones = ZoneTable::from_sequence(
+        &train,
+        &ZoneConfig::Uniform {
+            count: ZONES,
+            by: UniformBy::ArcLength,
+        },
+    )
+    .unwrap();
+    let mut map_cfg = MapConfig::default();
+    map_cfg.surf.threshold = 50.0;
+    let map = build_map(&train, &zones, &ds.meta.camera, &map_cfg, &|_| {}).unwrap();
+    let train_poses = train.poses.iter().map(|p| p.pose).collect();
+    Fixture {
+        _tmp: tmp,
+        ds,
+        zones,
+        map,
+        train_poses,
+    }
+}
+
+/// A localizer whose network is untrained: only its zone table and training poses matter
+/// here, the predictions are supplied by the test.
+fn localizer(f: &Fixture, cfg: LocalizerConfig) -> Localizer {
+    let device = endoloc_net::device::cpu();
+    let backbone = BackboneConfig::compact();
+    let net = backbone.init(&device).valid();
+    let n = f.train_poses.len();
+    let dim = backbone.descriptor_dim();
+    let mut d = vec![0.0f32; n * dim];
+    for row in d.chunks_exact_mut(dim) {
+        row[0] = 1.0;
+    }
+    let db = DescriptorDatabase::new(dim, ZONES, d, f.zones.zone_of_frame.clone()).unwrap();
+    let config = ModelConfig {
+        format_version: FORMAT_VERSION,
+        dataset: "test".into(),
+        sequence: "train".into(),
+        frames: n,
+        score: ScoreRule::Nearest,
+        camera: f.ds.meta.camera,
+        backbone,
+        zones: ZoneConfig::Uniform {
+            count: ZONES,
+            by: UniformBy::ArcLength,
+        },
+        temporal: TemporalConfig::default(),
+        train: TrainConfig::default(),
+    };
+    let clf = ZoneClassifier::from_parts(
+        "test".into(),
+        config,
+        net,
+        device,
+        f.zones.clone(),
+        db,
+        f.train_poses.clone(),
+    )
+    .unwrap();
+    let mut cfg = cfg;
+    cfg.surf.threshold = 50.0;
+    Localizer::new(clf, f.map.clone(), cfg).unwrap()
+}
+
+/// A prediction that strongly favours `zone`.
+fn predict(zone: usize) -> ZonePrediction {
+    let mut zone_scores = vec![1.0f32; ZONES];
+    zone_scores[zone] = 0.1;
+    ZonePrediction {
+        zone,
+        zone_scores,
+        nearest_frame: 0,
+        distance: 0.1,
+    }
+}
+
+fn position_error_mm(r: &FrameResult, gt: &Pose) -> f64 {
+    let p = r.t_wc.expect("a refined frame has a pose");
+    (p.translation.vector - gt.translation.vector).norm()
+}
+
+#[test]
+fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
+    let f = fixture();
+    let test = f.ds.sequence("test").unwrap();
+    let loc = localizer(f, LocalizerConfig::default());
+    // Per frame: every 5th test frame. Live: the first 60 consecutive frames (~4 mm apart).
+    let per_frame: Vec<usize> = (0..test.len()).step_by(5).collect();
+    let live_frames = 60;
+    let features: Vec<_> = (0..test.len())
+        .map(|i| {
+            if i % 5 != 0 && i >= live_frames {
+                return Vec::new();
+            }
+            loc.surf()
+                .detect_and_describe(&test.load_gray(i).unwrap())
+                .unwrap()
+        })
+        .collect();
+    let truth: Vec<usize> = test
+        .poses
+        .iter()
+        .map(|p| loc.classifier().truth_zone(&p.pose).unwrap())
+        .collect();
+
+    // Per frame, with the true zone: refined poses within millimetres.
+    let mut errors = Vec::new();
+    for &i in &per_frame {
+        let r = loc
+            .localize_features(
+                &features[i],
+                &predict(truth[i]),
+                truth[i],
+                StageTimes::default(),
+            )
+            .unwrap();
+        if r.status == Status::Refined {
+            errors.push(position_error_mm(&r, &test.poses[i].pose));
+        }
+    }
+    errors.sort_by(f64::total_cmp);
+    assert!(
+        errors.len() * 2 >= per_frame.len(),
+        "only {} of {} frames refined in their true zone",
+        errors.len(),
+        per_frame.len()
+    );
+    let median = errors[errors.len() / 2];
+    assert!(median < 2.0, "median position error {median:.2} mm");
+    assert!(errors.iter().all(|&e| e < 20.0), "{errors:?}");
+
+    // Live: the classifier is right for the first frames, then points 8 zones away.
+    let start = 10;
+    let wrong = |i: usize| {
+        if i < start {
+            truth[i]
+        } else {
+            (truth[i] + 8) % ZONES
+        }
+    };
+    let run_live = |track_frames: usize| -> (usize, Vec<f64>) {
+        let loc = localizer(
+            &f,
+            LocalizerConfig {
+                track_frames,
+                candidate_zones: 1,
+                ..LocalizerConfig::default()
+            },
+        );
+        let mut state = loc.live_state();
+        let mut refined_late = 0;
+        let mut errs = Vec::new();
+        for i in 0..live_frames {
+            let r = loc
+                .localize_live_features(
+                    &mut state,
+                    &features[i],
+                    &predict(wrong(i)),
+                    StageTimes::default(),
+                )
+                .unwrap();
+            if r.status == Status::Refined && i >= start {
+                refined_late += 1;
+                errs.push(position_error_mm(&r, &test.poses[i].pose));
+            }
+        }
+        (refined_late, errs)
+    };
+    let (tracked, errs) = run_live(5);
+    let (untracked, _) = run_live(0);
+    let late = live_frames - start;
+    // Measured (seed 3): 19 of 50 frames refined with tracking — it holds through frame ~40,
+    // where a stretch of feature-poor 320×240 frames breaks it — against 2 without.
+    assert!(
+        tracked * 10 >= late * 3,
+        "tracking kept only {tracked} of {late} frames refined"
+    );
+    assert!(
+        (untracked + 1) * 4 <= tracked,
+        "without tracking {untracked} frames refined in a wrong zone (tracking: {tracked})"
+    );
+    assert!(errs.iter().all(|&e| e < 20.0), "tracked errors {errs:?}");
+}
+
+#[test]
+fn a_textureless_frame_is_init_only_with_a_reason() {
+    let f = fixture();
+    let loc = localizer(f, LocalizerConfig::default());
+    let flat = image::GrayImage::from_pixel(
+        f.ds.meta.camera.width,
+        f.ds.meta.camera.height,
+        image::Luma([90]),
+    );
+    let r = loc.localize_live(&mut loc.live_state(), &flat).unwrap();
+    assert_eq!(r.status, Status::InitOnly);
+    assert_eq!(
+        r.reason.as_ref().map(|x| x.code()),
+        Some("too_few_correspondences")
+    );
+    assert!(r.t_wc.is_some(), "init_only reports the zone's median pose");
+}
