@@ -521,6 +521,9 @@ pub(super) fn bars(rows: &[MethodRow]) -> Vec<MethodBar> {
 
 /// Writes text to `path` atomically.
 pub(super) fn write_text(path: &Path, text: &str) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
     write_atomic(path, text.as_bytes())?;
     Ok(())
 }

@@ -9,6 +9,7 @@ use endoloc_localize::map_io::load_map;
 use endoloc_net::ZoneClassifier;
 use serde::Serialize;
 
+use super::baselines;
 use super::common::{
     self, Data, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
     ensure_model, predict_zones, run_endoloc, write_and_evaluate,
@@ -76,6 +77,12 @@ pub enum Method {
     EndolocLive,
     /// Ours with offline Viterbi zone smoothing.
     EndolocViterbi,
+    /// PoseNet: absolute pose regression.
+    Posenet,
+    /// OffsetNet: relative pose from the retrieved reference image.
+    Offsetnet,
+    /// Monocular visual odometry (first pose aligned, scale from the ground truth).
+    Vo,
     /// The classified zone's median pose (the first step alone).
     Classify,
     /// The pose of the nearest training image in descriptor space.
@@ -99,6 +106,11 @@ impl Method {
             Method::Endoloc => "two-step, up to 3 candidate zones",
             Method::EndolocLive => "two-step, causal HMM zone filter, 3 candidates",
             Method::EndolocViterbi => "two-step, offline Viterbi zones, 3 candidates",
+            Method::Posenet => "PoseNet pose regression (Kendall et al. 2015)",
+            Method::Offsetnet => {
+                "OffsetNet relative pose to the retrieved image (Sganga et al. 2018)"
+            }
+            Method::Vo => "monocular SURF visual odometry, first pose and scale from the truth",
             Method::Classify => "zone median pose (classification only)",
             Method::Retrieval => "pose of the nearest training image",
         }
@@ -259,6 +271,26 @@ impl Ctx<'_> {
                     .map(|p| train_poses.get(p.nearest_frame).copied())
                     .collect(),
             )),
+            Method::Posenet | Method::Offsetnet | Method::Vo => {
+                let inputs = baselines::Inputs {
+                    data: self.data,
+                    preds: &preds,
+                    zone_ms,
+                    models: &self.out.join("models"),
+                    epochs: self.epochs,
+                    seed: self.seed,
+                };
+                match m {
+                    Method::Posenet => baselines::posenet(&inputs),
+                    Method::Offsetnet => baselines::offsetnet(&inputs),
+                    _ => {
+                        let (out, note) = baselines::vo(&inputs)?;
+                        eprintln!("{note}");
+                        common::write_text(&self.out.join("runs/vo/tracking.txt"), &note)?;
+                        Ok(out)
+                    }
+                }
+            }
             _ => unreachable!("our method is handled above"),
         }
     }

@@ -10,6 +10,7 @@
 //! and a second invocation continues where the first stopped. SURF features of the test
 //! frames are extracted once per process and shared by every run that needs them.
 
+mod baselines;
 mod common;
 mod compare;
 mod expert;
