@@ -12,6 +12,7 @@ use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, MapConfig, build
 use endoloc_net::ZoneClassifier;
 use rayon::prelude::*;
 
+use crate::cmd::baselines;
 use crate::ui;
 
 /// Build the per-zone 3-D maps of a trained model: SURF tracks over `m` images of each zone,
@@ -120,9 +121,24 @@ pub fn run_map(args: MapArgs) -> Result<()> {
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct LocalizeArgs {
+    /// Method: `endoloc` (the paper's two-step method, default) or a baseline of the paper's
+    /// Table I: `classify` (zone median pose), `retrieval` (pose of the nearest training
+    /// image), `posenet` (--model is a PoseNet folder from `endoloc train --method posenet`),
+    /// `offsetnet` (--model the Siamese model for retrieval, --regressor the OffsetNet folder,
+    /// --reference-seq the training sequence) or `vo` (monocular visual odometry; needs the
+    /// sequence's poses.txt for the first pose and the scale, as the paper did for ORB-SLAM).
+    /// Baselines write trajectory.txt only.
+    #[arg(long, value_enum, default_value = "endoloc")]
+    pub method: LocalizeMethod,
     /// Model folder (trained, with its map).
     #[arg(long, value_name = "DIR")]
-    pub model: PathBuf,
+    pub model: Option<PathBuf>,
+    /// OffsetNet model folder (--method offsetnet).
+    #[arg(long, value_name = "DIR")]
+    pub regressor: Option<PathBuf>,
+    /// Training sequence folder holding the reference images (--method offsetnet).
+    #[arg(long, value_name = "DIR")]
+    pub reference_seq: Option<PathBuf>,
     /// Sequence folder to localize (images/ and, for evaluation, poses.txt), e.g. data/small/test.
     #[arg(long, value_name = "DIR")]
     pub seq: PathBuf,
@@ -168,15 +184,19 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
             args.out.display()
         );
     }
-    let classifier = ZoneClassifier::load(&args.model)
-        .with_context(|| format!("loading model {}", args.model.display()))?;
-    let map = load_map(&args.model)?;
+    if args.method != LocalizeMethod::Endoloc {
+        return run_baseline(&args);
+    }
+    let model = args.model.as_deref().context("--model is required")?;
+    let classifier = ZoneClassifier::load(model)
+        .with_context(|| format!("loading model {}", model.display()))?;
+    let map = load_map(model)?;
     let seq = Sequence::open(&args.seq)?;
     let camera = dataset_camera(&args.seq)?;
     classifier.check_compatible(&camera).with_context(|| {
         format!(
             "model {} vs sequence {}",
-            args.model.display(),
+            model.display(),
             args.seq.display()
         )
     })?;
@@ -225,6 +245,103 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
         "wrote     {}/trajectory.txt, frames.csv",
         args.out.display()
     );
+    Ok(())
+}
+
+/// A localization method of `endoloc localize`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LocalizeMethod {
+    /// The paper's two-step method (zone, then SURF map matching and Gauss-Newton).
+    Endoloc,
+    /// Zone median pose (classification only).
+    Classify,
+    /// Pose of the nearest training image in descriptor space.
+    Retrieval,
+    /// PoseNet pose regression.
+    Posenet,
+    /// OffsetNet relative pose to the retrieved training image.
+    Offsetnet,
+    /// Monocular visual odometry, first pose and scale from the ground truth.
+    Vo,
+}
+
+/// `endoloc localize --method <baseline>`: estimates and trajectory.txt.
+fn run_baseline(args: &LocalizeArgs) -> Result<()> {
+    let seq = Sequence::open(&args.seq)?;
+    let camera = dataset_camera(&args.seq)?;
+    let name = format!("{:?}", args.method).to_lowercase();
+    let model = || {
+        args.model
+            .as_deref()
+            .with_context(|| format!("--method {name} needs --model"))
+    };
+    let classify = |dir: &Path| -> Result<(ZoneClassifier, Vec<endoloc_net::ZonePrediction>, f64)> {
+        let clf = ZoneClassifier::load(dir)
+            .with_context(|| format!("loading model {}", dir.display()))?;
+        clf.check_compatible(&camera)?;
+        let (preds, ms) = crate::cmd::experiment::predict_zones(&clf, &seq)?;
+        Ok((clf, preds, ms))
+    };
+    let est = match args.method {
+        LocalizeMethod::Classify | LocalizeMethod::Retrieval => {
+            let (clf, preds, ms) = classify(model()?)?;
+            let poses = preds
+                .iter()
+                .map(|p| {
+                    if args.method == LocalizeMethod::Classify {
+                        clf.zones().zones.get(p.zone).map(|z| z.median_pose)
+                    } else {
+                        clf.train_poses().get(p.nearest_frame).copied()
+                    }
+                })
+                .collect();
+            baselines::Estimates {
+                poses,
+                ms_per_frame: ms,
+                note: None,
+            }
+        }
+        LocalizeMethod::Posenet => baselines::posenet(model()?, &seq)?,
+        LocalizeMethod::Offsetnet => {
+            let reg = args
+                .regressor
+                .as_deref()
+                .context("--method offsetnet needs --regressor (the OffsetNet model folder)")?;
+            let refs = args.reference_seq.as_deref().context(
+                "--method offsetnet needs --reference-seq (the training sequence folder)",
+            )?;
+            let train = Sequence::open(refs)?;
+            let (_, preds, ms) = classify(model()?)?;
+            baselines::offsetnet(reg, &train, &seq, &preds, ms)?
+        }
+        LocalizeMethod::Vo => baselines::vo(&camera, &seq)?,
+        LocalizeMethod::Endoloc => unreachable!("handled by run_localize"),
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let trajectory: Vec<StampedPose> = est
+        .poses
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| {
+            p.map(|pose| StampedPose {
+                timestamp_s: seq.poses[i].timestamp_s,
+                pose,
+            })
+        })
+        .collect();
+    endoloc_data::write_tum(&args.out.join("trajectory.txt"), &trajectory)?;
+    if let Some(note) = &est.note {
+        println!("{note}");
+    }
+    println!(
+        "frames    {} — {} with a pose ({:.1} %), {:.1} ms per frame",
+        seq.len(),
+        trajectory.len(),
+        100.0 * trajectory.len() as f64 / seq.len().max(1) as f64,
+        est.ms_per_frame
+    );
+    println!("wrote     {}/trajectory.txt", args.out.display());
     Ok(())
 }
 

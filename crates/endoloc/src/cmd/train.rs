@@ -5,6 +5,8 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use endoloc_data::Dataset;
+
+use crate::cmd::baselines::{Regressor, train_regressor};
 use endoloc_net::backbone::BackboneConfig;
 use endoloc_net::train::{Phase, Schedule, TrainConfig, TrainTarget, train};
 use endoloc_net::{AugmentConfig, UniformBy, ZoneConfig, ZoneTable};
@@ -32,6 +34,12 @@ use endoloc_net::{AugmentConfig, UniformBy, ZoneConfig, ZoneTable};
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
+    /// What to train: the Siamese zone classifier (the paper's method) or a learning
+    /// baseline on the same backbone (`posenet`, `offsetnet`; for `endoloc localize --method`
+    /// and `endoloc experiment compare`). The baselines use --data, --seq, --out, --epochs,
+    /// --seed and --force.
+    #[arg(long, value_enum, default_value = "siamese")]
+    method: TrainMethod,
     /// Dataset folder (with dataset.toml).
     #[arg(long, value_name = "DIR")]
     data: PathBuf,
@@ -175,12 +183,41 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
 }
 
 /// Runs `endoloc train`.
+/// What `endoloc train` trains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum TrainMethod {
+    /// The Siamese zone classifier.
+    Siamese,
+    /// PoseNet pose regression (baseline).
+    Posenet,
+    /// OffsetNet relative pose regression (baseline).
+    Offsetnet,
+}
+
 pub fn run(args: Args) -> Result<()> {
     if let Some(n) = args.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n.max(1))
             .build_global()
             .context("setting the thread count")?;
+    }
+    if args.method != TrainMethod::Siamese {
+        let which = if args.method == TrainMethod::Posenet {
+            Regressor::PoseNet
+        } else {
+            Regressor::OffsetNet
+        };
+        let dataset = Dataset::open(&args.data)?;
+        let seq = dataset.sequence(&args.seq)?;
+        return train_regressor(
+            which,
+            &seq,
+            &dataset.meta.camera,
+            &args.out,
+            args.epochs,
+            args.seed,
+            args.force,
+        );
     }
     let cfg = train_config(&args)?;
     let zcfg = zone_config(&args.zones, &args.uniform_by)?;

@@ -201,7 +201,7 @@ impl FeatureCache {
 
 /// Zone predictions of every test frame, and the time per frame (descriptor + look-up,
 /// batched over both cores), ms.
-pub(super) fn predict_zones(
+pub(crate) fn predict_zones(
     classifier: &ZoneClassifier,
     seq: &Sequence,
 ) -> Result<(Vec<ZonePrediction>, f64)> {

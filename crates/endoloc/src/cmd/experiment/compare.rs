@@ -9,11 +9,11 @@ use endoloc_localize::map_io::load_map;
 use endoloc_net::ZoneClassifier;
 use serde::Serialize;
 
-use super::baselines;
 use super::common::{
     self, Data, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
     ensure_model, predict_zones, run_endoloc, write_and_evaluate,
 };
+use crate::cmd::baselines::{self, Regressor};
 
 /// Compare every method on one dataset: our two-step method (per frame as in the paper,
 /// with candidate zones, live and offline temporal filtering) against the baselines —
@@ -272,24 +272,53 @@ impl Ctx<'_> {
                     .collect(),
             )),
             Method::Posenet | Method::Offsetnet | Method::Vo => {
-                let inputs = baselines::Inputs {
-                    data: self.data,
-                    preds: &preds,
-                    zone_ms,
-                    models: &self.out.join("models"),
-                    epochs: self.epochs,
-                    seed: self.seed,
-                };
-                match m {
-                    Method::Posenet => baselines::posenet(&inputs),
-                    Method::Offsetnet => baselines::offsetnet(&inputs),
-                    _ => {
-                        let (out, note) = baselines::vo(&inputs)?;
-                        eprintln!("{note}");
-                        common::write_text(&self.out.join("runs/vo/tracking.txt"), &note)?;
-                        Ok(out)
+                let ds = endoloc_data::Dataset::open(&self.data.dir)?;
+                let train = ds.sequence(&self.data.train_name)?;
+                let test = &self.data.test;
+                let models = self.out.join("models");
+                let est = match m {
+                    Method::Posenet | Method::Offsetnet => {
+                        let which = if m == Method::Posenet {
+                            Regressor::PoseNet
+                        } else {
+                            Regressor::OffsetNet
+                        };
+                        let dir = models.join(which.name());
+                        if dir.join("regress.toml").is_file() {
+                            eprintln!("reusing   model {}", dir.display());
+                        } else {
+                            baselines::train_regressor(
+                                which,
+                                &train,
+                                &ds.meta.camera,
+                                &dir,
+                                self.epochs,
+                                self.seed,
+                                false,
+                            )?;
+                        }
+                        if which == Regressor::PoseNet {
+                            baselines::posenet(&dir, test)?
+                        } else {
+                            baselines::offsetnet(&dir, &train, test, &preds, zone_ms)?
+                        }
                     }
+                    _ => baselines::vo(&ds.meta.camera, test)?,
+                };
+                if let Some(note) = &est.note {
+                    eprintln!("{note}");
+                    common::write_text(
+                        &self.out.join("runs").join(m.name()).join("note.txt"),
+                        note,
+                    )?;
                 }
+                Ok(MethodOutput {
+                    name: m.name(),
+                    description: m.description().into(),
+                    poses: est.poses,
+                    results: None,
+                    ms_per_frame: est.ms_per_frame,
+                })
             }
             _ => unreachable!("our method is handled above"),
         }

@@ -10,7 +10,6 @@
 //! and a second invocation continues where the first stopped. SURF features of the test
 //! frames are extracted once per process and shared by every run that needs them.
 
-mod baselines;
 mod common;
 mod compare;
 mod expert;
@@ -18,6 +17,8 @@ mod perturb;
 mod zones;
 
 use anyhow::Result;
+
+pub(crate) use common::predict_zones;
 
 /// Run the paper's comparisons and studies (Table I, Fig. 4, Fig. 7, anatomical zones).
 #[derive(Debug, clap::Args)]
