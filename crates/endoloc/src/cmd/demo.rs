@@ -9,7 +9,8 @@ use crate::cmd;
 
 /// Run the whole pipeline on the built-in procedural colon, with no input files: simulate the
 /// `small` dataset, train the Siamese zone classifier, build the per-zone SURF maps, localize
-/// every test frame and evaluate against the ground truth. Each stage is the same command a
+/// every test frame as a live video (frames in order, causal zone filter, tracking from the
+/// last refined pose) and evaluate against the ground truth. Each stage is the same command a
 /// user would run (printed as it starts), so the demo doubles as a tutorial.
 ///
 /// Output folder layout: data/ (dataset), model/ (classifier, zones, maps), run/
@@ -125,6 +126,7 @@ pub fn run(args: Args) -> Result<()> {
         &p("data/test"),
         "--out",
         &p("run"),
+        "--live",
     ]);
     stage("4/5 localize", &loc);
     cmd::localize::run_localize(parse(&loc)?)?;

@@ -164,6 +164,17 @@ pub struct LocalizeArgs {
     /// as the paper does.
     #[arg(long, default_value_t = 3)]
     pub candidate_zones: usize,
+    /// Validity: largest predicted position uncertainty (1σ, mm) of a refined pose; frames
+    /// above it keep the zone's median pose as `init_only` (degenerate_geometry).
+    #[arg(long, default_value_t = 5.0)]
+    pub max_sigma_mm: f64,
+    /// Validity: largest RMS reprojection error of the inliers, pixels.
+    #[arg(long, default_value_t = 3.0)]
+    pub max_rms_px: f64,
+    /// Validity: largest jump from the prior (the zone's median pose, or in live mode the last
+    /// refined pose), mm.
+    #[arg(long, default_value_t = 50.0)]
+    pub max_jump_mm: f64,
     /// Replace existing results in --out.
     #[arg(long)]
     pub force: bool,
@@ -210,6 +221,10 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
     if let Some(t) = args.threshold {
         cfg.surf.threshold = t as f32;
     }
+    let validity = &mut cfg.localize.validity;
+    validity.max_position_sigma_mm = args.max_sigma_mm;
+    validity.max_rms_px = args.max_rms_px;
+    validity.max_jump_mm = args.max_jump_mm;
     let localizer = Localizer::new(classifier, map, cfg)?;
     let n = seq.len();
     let bar = ui::progress_bar(n as u64, if args.live { "live" } else { "localize" });

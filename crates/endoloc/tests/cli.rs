@@ -1,0 +1,281 @@
+//! The command line end to end on a tiny simulated colon: simulate → train → map →
+//! localize (every method) → eval → experiment compare / perturb, checking the files a user
+//! gets and that bad input gives a clear error instead of a panic. The numbers are not the
+//! point here (a one-epoch model on 160×120 frames); the crates' own tests check accuracy.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn endoloc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_endoloc"))
+        .args(args)
+        .output()
+        .expect("run endoloc")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = endoloc(args);
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "endoloc {args:?} failed:\n{text}");
+    text
+}
+
+fn fails(args: &[&str]) -> String {
+    let out = endoloc(args);
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!out.status.success(), "endoloc {args:?} should fail");
+    assert!(
+        !err.contains("panicked"),
+        "endoloc {args:?} panicked:\n{err}"
+    );
+    err
+}
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+struct Setup {
+    _tmp: tempfile::TempDir,
+    root: PathBuf,
+}
+
+/// A tiny dataset and a one-epoch model with its map.
+fn setup() -> Setup {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path().to_path_buf();
+    let data = root.join("data");
+    let model = root.join("model");
+    ok(&[
+        "simulate",
+        "--preset",
+        "small",
+        "--train-frames",
+        "120",
+        "--test-frames",
+        "40",
+        "--width",
+        "160",
+        "--height",
+        "120",
+        "--out",
+        &s(&data),
+    ]);
+    ok(&[
+        "train",
+        "--data",
+        &s(&data),
+        "--zones",
+        "6",
+        "--epochs",
+        "1",
+        "--out",
+        &s(&model),
+    ]);
+    ok(&[
+        "map",
+        "--model",
+        &s(&model),
+        "--data",
+        &s(&data),
+        "--threshold",
+        "20",
+    ]);
+    Setup { _tmp: tmp, root }
+}
+
+#[test]
+fn every_method_and_experiment_writes_its_outputs() {
+    let st = setup();
+    let r = |p: &str| s(&st.root.join(p));
+
+    // Our method, live, then evaluated.
+    ok(&[
+        "localize",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--out",
+        &r("run"),
+        "--live",
+    ]);
+    let frames = std::fs::read_to_string(st.root.join("run/frames.csv")).unwrap();
+    assert_eq!(
+        frames.lines().count(),
+        41,
+        "header + one row per test frame"
+    );
+    ok(&[
+        "eval",
+        "--gt",
+        &r("data/test/poses.txt"),
+        "--est",
+        &r("run/trajectory.txt"),
+        "--no-plots",
+    ]);
+    assert!(st.root.join("run/eval/metrics.json").is_file());
+    // Results are never overwritten silently.
+    let err = fails(&[
+        "localize",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--out",
+        &r("run"),
+    ]);
+    assert!(err.contains("--force"), "{err}");
+
+    // Baselines through `localize --method`.
+    for method in ["classify", "retrieval", "vo"] {
+        let out = format!("run-{method}");
+        ok(&[
+            "localize",
+            "--method",
+            method,
+            "--model",
+            &r("model"),
+            "--seq",
+            &r("data/test"),
+            "--out",
+            &r(&out),
+        ]);
+        let traj = std::fs::read_to_string(st.root.join(&out).join("trajectory.txt")).unwrap();
+        assert!(traj.lines().count() > 0, "{method}: empty trajectory");
+    }
+    let err = fails(&[
+        "localize",
+        "--method",
+        "offsetnet",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--out",
+        &r("run-offsetnet"),
+    ]);
+    assert!(err.contains("--regressor"), "{err}");
+
+    // The comparison table with every method that needs no extra training.
+    ok(&[
+        "experiment",
+        "compare",
+        "--data",
+        &r("data"),
+        "--model",
+        &r("model"),
+        "--threshold",
+        "20",
+        "--methods",
+        "endoloc-paper,endoloc-live,classify,retrieval,vo",
+        "--out",
+        &r("compare"),
+    ]);
+    let rows: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(st.root.join("compare/compare.json")).unwrap(),
+    )
+    .unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 5);
+    for row in rows {
+        assert_eq!(row["frames"], 40);
+    }
+    let html = std::fs::read_to_string(st.root.join("compare/report.html")).unwrap();
+    assert!(
+        html.contains("data:image/png;base64,"),
+        "plots are embedded"
+    );
+    assert!(html.contains("endoloc-live"));
+    assert!(st.root.join("compare/compare.md").is_file());
+    assert!(st.root.join("compare/runs/vo/note.txt").is_file());
+    // Running it again reuses every finished run.
+    let again = ok(&[
+        "experiment",
+        "compare",
+        "--data",
+        &r("data"),
+        "--model",
+        &r("model"),
+        "--threshold",
+        "20",
+        "--methods",
+        "classify",
+        "--out",
+        &r("compare"),
+    ]);
+    assert!(again.contains("reusing   classify"), "{again}");
+
+    // The perturbation study.
+    ok(&[
+        "experiment",
+        "perturb",
+        "--data",
+        &r("data"),
+        "--model",
+        &r("model"),
+        "--threshold",
+        "20",
+        "--max",
+        "1",
+        "--out",
+        &r("perturb"),
+    ]);
+    let csv = std::fs::read_to_string(st.root.join("perturb/perturb.csv")).unwrap();
+    let offsets: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert_eq!(offsets, ["-1", "0", "1"]);
+    assert!(st.root.join("perturb/report.html").is_file());
+}
+
+#[test]
+fn bad_experiment_arguments_are_clear_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let missing = tmp.path().join("nothing");
+    let err = fails(&[
+        "experiment",
+        "zones",
+        "--data",
+        &s(&missing),
+        "--from",
+        "20",
+        "--to",
+        "10",
+        "--out",
+        &s(&tmp.path().join("z")),
+    ]);
+    assert!(err.contains("--from 20 --to 10"), "{err}");
+    let err = fails(&[
+        "experiment",
+        "compare",
+        "--data",
+        &s(&missing),
+        "--out",
+        &s(&tmp.path().join("c")),
+    ]);
+    assert!(err.contains("nothing"), "names the dataset folder: {err}");
+    // A folder with someone else's files is not used without --force.
+    let other = tmp.path().join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::write(other.join("precious.txt"), "keep me").unwrap();
+    let err = fails(&[
+        "experiment",
+        "perturb",
+        "--data",
+        &s(&missing),
+        "--out",
+        &s(&other),
+    ]);
+    assert!(err.contains("--force"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(other.join("precious.txt")).unwrap(),
+        "keep me"
+    );
+}
