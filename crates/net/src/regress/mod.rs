@@ -230,10 +230,8 @@ impl RegressConfig {
                 s.epochs, s.samples_per_epoch, s.batch
             )));
         }
-        if !(s.learning_rate > 0.0 && s.final_learning_rate > 0.0)
-            || !s.learning_rate.is_finite()
-            || !s.final_learning_rate.is_finite()
-        {
+        let positive = |v: f64| v > 0.0 && v.is_finite();
+        if !positive(s.learning_rate) || !positive(s.final_learning_rate) {
             return Err(NetError::Config("learning rates must be positive".into()));
         }
         if !(self.beta >= 0.0 && self.beta.is_finite()) {
