@@ -43,6 +43,10 @@ pub struct LocalizerConfig {
     /// tried — a scope moves little between frames at 30 fps. 0 = off; otherwise the number
     /// of frames a refined pose stays usable as the prior.
     pub track_frames: usize,
+    /// Live mode only: when neither tracking nor the candidate zones register, also try the
+    /// zones around the last refined pose's zone (one behind, two ahead) for this many frames
+    /// after it — the scope cannot have gone far. 0 = off.
+    pub recover_frames: usize,
 }
 
 impl Default for LocalizerConfig {
@@ -55,6 +59,7 @@ impl Default for LocalizerConfig {
             temporal: TemporalConfig::default(),
             candidate_zones: 3,
             track_frames: 5,
+            recover_frames: 300,
         }
     }
 }
@@ -325,6 +330,19 @@ impl Localizer {
         chosen: usize,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
+        self.localize_candidates(features, pred, chosen, &[], times)
+    }
+
+    /// [`Localizer::localize_features`], then `extra` zones (not already tried) if none of the
+    /// candidate zones registered.
+    fn localize_candidates(
+        &self,
+        features: &[Feature],
+        pred: &ZonePrediction,
+        chosen: usize,
+        extra: &[usize],
+        times: StageTimes,
+    ) -> Result<FrameResult, LocalizeError> {
         let n_zones = self.classifier.zone_count();
         if chosen >= n_zones {
             return Err(LocalizeError::Config(format!(
@@ -339,6 +357,11 @@ impl Localizer {
         });
         order.insert(0, chosen);
         order.truncate(self.cfg.candidate_zones.max(1));
+        for &z in extra {
+            if z < n_zones && !order.contains(&z) {
+                order.push(z);
+            }
+        }
 
         let mut first: Option<FrameResult> = None;
         let mut spent = StageTimes::default();
@@ -487,7 +510,18 @@ impl Localizer {
             spent.matching_ms += r.times.matching_ms;
             spent.refine_ms += r.times.refine_ms;
         }
-        let mut r = self.localize_features(features, pred, zone, times)?;
+        let extra: Vec<usize> = match state.last {
+            Some((pose, at))
+                if self.cfg.recover_frames > 0 && frame - at <= self.cfg.recover_frames =>
+            {
+                match self.classifier.truth_zone(&pose) {
+                    Some(z) => (z.saturating_sub(1)..=z + 2).collect(),
+                    None => Vec::new(),
+                }
+            }
+            _ => Vec::new(),
+        };
+        let mut r = self.localize_candidates(features, pred, zone, &extra, times)?;
         r.times.matching_ms += spent.matching_ms;
         r.times.refine_ms += spent.refine_ms;
         self.remember(state, &r, frame);

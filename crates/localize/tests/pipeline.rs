@@ -189,6 +189,7 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
             LocalizerConfig {
                 track_frames,
                 candidate_zones: 1,
+                recover_frames: 0,
                 ..LocalizerConfig::default()
             },
         );

@@ -154,6 +154,10 @@ pub struct LocalizeArgs {
     /// starts from its zone's median pose, as in the paper).
     #[arg(long, default_value_t = 5)]
     pub track_frames: usize,
+    /// Live mode: for this many frames after a refined one, frames that register nowhere else
+    /// also try the zones around it (one behind, two ahead); 0: off.
+    #[arg(long, default_value_t = 300)]
+    pub recover_frames: usize,
     /// Map points also come from this many zones on each side of the classified one.
     #[arg(long, default_value_t = 1)]
     pub neighbours: usize,
@@ -215,6 +219,7 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
         neighbour_zones: args.neighbours,
         candidate_zones: args.candidate_zones,
         track_frames: args.track_frames,
+        recover_frames: args.recover_frames,
         surf: map.config.surf.clone(),
         ..LocalizerConfig::default()
     };
