@@ -47,6 +47,11 @@ pub struct LocalizerConfig {
     /// zones around the last refined pose's zone (one behind, two ahead) for this many frames
     /// after it — the scope cannot have gone far. 0 = off.
     pub recover_frames: usize,
+    /// Live mode only: an `init_only` frame reports the last refined pose instead of its
+    /// zone's median pose when that pose is at most this many frames old (the scope moves
+    /// little in a second or two; a zone median can be a zone away). The status stays
+    /// `init_only`. 0 = always the zone median, as in the paper.
+    pub hold_frames: usize,
 }
 
 impl Default for LocalizerConfig {
@@ -60,6 +65,7 @@ impl Default for LocalizerConfig {
             candidate_zones: 3,
             track_frames: 5,
             recover_frames: 300,
+            hold_frames: 60,
         }
     }
 }
@@ -524,6 +530,13 @@ impl Localizer {
         let mut r = self.localize_candidates(features, pred, zone, &extra, times)?;
         r.times.matching_ms += spent.matching_ms;
         r.times.refine_ms += spent.refine_ms;
+        if r.status == Status::InitOnly
+            && let Some((pose, at)) = state.last
+            && self.cfg.hold_frames > 0
+            && frame - at <= self.cfg.hold_frames
+        {
+            r.t_wc = Some(pose);
+        }
         self.remember(state, &r, frame);
         Ok(r)
     }

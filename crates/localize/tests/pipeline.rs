@@ -195,6 +195,7 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
         );
         let mut state = loc.live_state();
         let mut refined_late = 0;
+        let mut last_refined: Option<(Pose, usize)> = None;
         let mut errs = Vec::new();
         for i in 0..live_frames {
             let r = loc
@@ -205,6 +206,16 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
                     StageTimes::default(),
                 )
                 .unwrap();
+            // Hold: an init_only frame soon after a refined one reports that refined pose.
+            if r.status == Status::InitOnly
+                && let Some((pose, at)) = last_refined
+                && i - at <= 60
+            {
+                assert_eq!(r.t_wc, Some(pose), "frame {i} holds frame {at}'s pose");
+            }
+            if r.status == Status::Refined {
+                last_refined = r.t_wc.map(|p| (p, i));
+            }
             if r.status == Status::Refined && i >= start {
                 refined_late += 1;
                 errs.push(position_error_mm(&r, &test.poses[i].pose));

@@ -158,6 +158,10 @@ pub struct LocalizeArgs {
     /// also try the zones around it (one behind, two ahead); 0: off.
     #[arg(long, default_value_t = 300)]
     pub recover_frames: usize,
+    /// Live mode: an init_only frame reports the last refined pose (instead of its zone's
+    /// median) when that is at most this many frames old; 0: always the zone median.
+    #[arg(long, default_value_t = 60)]
+    pub hold_frames: usize,
     /// Map points also come from this many zones on each side of the classified one.
     #[arg(long, default_value_t = 1)]
     pub neighbours: usize,
@@ -220,6 +224,7 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
         candidate_zones: args.candidate_zones,
         track_frames: args.track_frames,
         recover_frames: args.recover_frames,
+        hold_frames: args.hold_frames,
         surf: map.config.surf.clone(),
         ..LocalizerConfig::default()
     };
