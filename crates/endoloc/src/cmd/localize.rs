@@ -168,6 +168,10 @@ pub struct LocalizeArgs {
     /// SURF threshold on the test frames (default: the one the map was built with).
     #[arg(long)]
     pub threshold: Option<f64>,
+    /// Keep at most this many SURF keypoints per test frame, the strongest (0: all); bounds
+    /// the time per frame on richly textured frames.
+    #[arg(long, default_value_t = 0)]
+    pub max_keypoints: usize,
     /// Zones tried (best classifier score first) until one registers; 1 = trust the top zone
     /// as the paper does.
     #[arg(long, default_value_t = 3)]
@@ -231,6 +235,7 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
     if let Some(t) = args.threshold {
         cfg.surf.threshold = t as f32;
     }
+    cfg.surf.max_keypoints = args.max_keypoints;
     let validity = &mut cfg.localize.validity;
     validity.max_position_sigma_mm = args.max_sigma_mm;
     validity.max_rms_px = args.max_rms_px;
