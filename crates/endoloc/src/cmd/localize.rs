@@ -38,8 +38,10 @@ pub struct MapArgs {
     /// Images per zone (the paper's m ≥ 3).
     #[arg(long, default_value_t = 8)]
     pub images_per_zone: usize,
-    /// SURF threshold (the paper's MATLAB MetricThreshold).
-    #[arg(long, default_value_t = 200.0)]
+    /// SURF threshold (units of MATLAB's MetricThreshold). The paper used 200; on the simulator's
+    /// 640×480 frames 50 gives ten times more map points (median 446 against 42 per zone on
+    /// the `paper` preset) and 74 % against 22 % refined frames, so 50 is the default.
+    #[arg(long, default_value_t = 50.0)]
     pub threshold: f64,
     /// δr: drop map points reprojecting farther than this, pixels.
     #[arg(long, default_value_t = 10.0)]

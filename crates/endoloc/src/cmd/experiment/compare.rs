@@ -50,9 +50,8 @@ pub struct Args {
     /// Seed of every training.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// SURF threshold of the maps and test frames (the paper's 200 suits 640×480 frames; use
-    /// 50 for 320×240).
-    #[arg(long, default_value_t = 200.0)]
+    /// SURF threshold of the maps and test frames (see `endoloc map --help`).
+    #[arg(long, default_value_t = 50.0)]
     threshold: f64,
     /// Use this trained Siamese model (with or without a map) instead of training one.
     #[arg(long, value_name = "DIR")]

@@ -53,7 +53,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// SURF threshold of the maps and test frames.
-    #[arg(long, default_value_t = 200.0)]
+    #[arg(long, default_value_t = 50.0)]
     threshold: f64,
     /// Use an output folder that holds something else.
     #[arg(long)]

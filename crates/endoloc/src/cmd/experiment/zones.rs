@@ -61,7 +61,7 @@ pub struct Args {
     #[arg(long, default_value_t = 30)]
     epochs: usize,
     /// SURF threshold of the maps and test frames.
-    #[arg(long, default_value_t = 200.0)]
+    #[arg(long, default_value_t = 50.0)]
     threshold: f64,
     /// Zones tried per frame (1 = the paper's rule).
     #[arg(long, default_value_t = 3)]
