@@ -120,6 +120,31 @@ pub struct CurvePoint {
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 
+/// Grid, axis labels and descriptions (with text), or a plain border (without).
+fn axes(
+    chart: &mut crate::plots::Chart<'_, '_>,
+    text: bool,
+    x_desc: &str,
+    unit: &str,
+    x: (f64, f64),
+    y: (f64, f64),
+) -> Result<(), String> {
+    let mut mesh = chart.configure_mesh();
+    mesh.light_line_style(RGBColor(235, 235, 235));
+    if text {
+        mesh.x_desc(x_desc)
+            .y_desc(unit)
+            .label_style(("sans-serif", 13));
+    } else {
+        mesh.x_labels(0).y_labels(0);
+    }
+    mesh.draw().map_err(|e| e.to_string())?;
+    if !text {
+        border(chart, x, y)?;
+    }
+    Ok(())
+}
+
 fn panel_chart<'a, 'b>(
     area: &'a Area<'b>,
     text: bool,
@@ -314,19 +339,7 @@ fn box_panel(
         * 1.08;
     let x = padded(xlo - half, xhi + half);
     let mut chart = panel_chart(area, text, title, x, (0.0, ymax))?;
-    let mut mesh = chart.configure_mesh();
-    mesh.light_line_style(RGBColor(235, 235, 235));
-    if text {
-        mesh.x_desc(x_desc)
-            .y_desc(unit)
-            .label_style(("sans-serif", 13));
-    } else {
-        mesh.x_labels(0).y_labels(0);
-    }
-    mesh.draw().map_err(|e| e.to_string())?;
-    if !text {
-        border(&mut chart, x, (0.0, ymax))?;
-    }
+    axes(&mut chart, text, x_desc, unit, x, (0.0, ymax))?;
     for (cx, stats) in boxes {
         let Some(s) = stats else { continue };
         let cx = *cx;
@@ -422,19 +435,7 @@ fn curve_panel(
         * 1.1;
     let x = padded(xlo, xhi);
     let mut chart = panel_chart(area, text, title, x, (0.0, ymax))?;
-    let mut mesh = chart.configure_mesh();
-    mesh.light_line_style(RGBColor(235, 235, 235));
-    if text {
-        mesh.x_desc(x_desc)
-            .y_desc(unit)
-            .label_style(("sans-serif", 13));
-    } else {
-        mesh.x_labels(0).y_labels(0);
-    }
-    mesh.draw().map_err(|e| e.to_string())?;
-    if !text {
-        border(&mut chart, x, (0.0, ymax))?;
-    }
+    axes(&mut chart, text, x_desc, unit, x, (0.0, ymax))?;
     for (pick, color) in [(1usize, MEAN), (2, MEDIAN)] {
         let line: Vec<(f64, f64)> = points
             .iter()

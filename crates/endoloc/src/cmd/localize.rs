@@ -408,7 +408,14 @@ pub fn write_results(out: &Path, seq: &Sequence, results: &[FrameResult]) -> Res
         })
         .collect();
     endoloc_data::write_tum(&out.join("trajectory.txt"), &trajectory)?;
-    let rows: Vec<FrameRecord> = results
+    let rows = frame_records(results);
+    write_frames_csv(&out.join("frames.csv"), &rows)?;
+    Ok(())
+}
+
+/// The frames.csv rows of a run, one per frame in order.
+pub fn frame_records(results: &[FrameResult]) -> Vec<FrameRecord> {
+    results
         .iter()
         .enumerate()
         .map(|(i, r)| FrameRecord {
@@ -427,9 +434,7 @@ pub fn write_results(out: &Path, seq: &Sequence, results: &[FrameResult]) -> Res
                 .then_some(r.reprojection_rms_px),
             time_ms: r.times.total_ms(),
         })
-        .collect();
-    write_frames_csv(&out.join("frames.csv"), &rows)?;
-    Ok(())
+        .collect()
 }
 
 /// Prints counts per status and per-stage median latency.

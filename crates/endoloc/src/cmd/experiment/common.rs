@@ -24,6 +24,20 @@ use crate::cmd;
 use crate::cmd::demo::parse;
 use crate::ui;
 
+/// Where an experiment's data is (flattened into each experiment's arguments).
+#[derive(Debug, Clone, clap::Args)]
+pub(super) struct DataArgs {
+    /// Dataset with a training and a test sequence.
+    #[arg(long, value_name = "DIR")]
+    pub data: PathBuf,
+    /// Training sequence.
+    #[arg(long, default_value = "train")]
+    pub train: String,
+    /// Test sequence.
+    #[arg(long, default_value = "test")]
+    pub test: String,
+}
+
 /// The dataset an experiment runs on: its training and test sequences.
 pub(super) struct Data {
     /// Dataset folder.
@@ -35,6 +49,10 @@ pub(super) struct Data {
 }
 
 impl Data {
+    pub fn from_args(a: &DataArgs) -> Result<Self> {
+        Self::open(&a.data, &a.train, &a.test)
+    }
+
     pub fn open(dir: &Path, train: &str, test: &str) -> Result<Self> {
         let ds =
             Dataset::open(dir).with_context(|| format!("opening dataset {}", dir.display()))?;
@@ -368,27 +386,10 @@ pub(super) fn write_and_evaluate(
         })
         .collect();
     endoloc_data::write_tum(&dir.join("trajectory.txt"), &est)?;
-    let frames: Option<Vec<FrameRecord>> = out.results.as_ref().map(|rs| {
-        rs.iter()
-            .enumerate()
-            .map(|(i, r)| FrameRecord {
-                frame: i,
-                zone: Some(r.zone),
-                zone_score: Some(r.zone_score as f64),
-                status: r.status,
-                reason: r
-                    .reason
-                    .as_ref()
-                    .map_or(String::new(), |x| x.code().to_string()),
-                inliers: Some(r.inliers),
-                reprojection_rms_px: r
-                    .reprojection_rms_px
-                    .is_finite()
-                    .then_some(r.reprojection_rms_px),
-                time_ms: r.times.total_ms(),
-            })
-            .collect()
-    });
+    let frames: Option<Vec<FrameRecord>> = out
+        .results
+        .as_deref()
+        .map(crate::cmd::localize::frame_records);
     if let Some(f) = &frames {
         write_frames_csv(&dir.join("frames.csv"), f)?;
     }

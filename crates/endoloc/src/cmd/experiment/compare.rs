@@ -10,7 +10,7 @@ use endoloc_net::ZoneClassifier;
 use serde::Serialize;
 
 use super::common::{
-    self, Data, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
+    self, Data, DataArgs, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
     ensure_model, predict_zones, run_endoloc, write_and_evaluate,
 };
 use crate::cmd::baselines::{self, Regressor};
@@ -29,15 +29,8 @@ use crate::cmd::baselines::{self, Regressor};
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Dataset with a training and a test sequence.
-    #[arg(long, value_name = "DIR")]
-    data: PathBuf,
-    /// Training sequence.
-    #[arg(long, default_value = "train")]
-    train: String,
-    /// Test sequence.
-    #[arg(long, default_value = "test")]
-    test: String,
+    #[command(flatten)]
+    data: DataArgs,
     /// Output folder.
     #[arg(long, default_value = "experiments/compare")]
     out: PathBuf,
@@ -134,7 +127,7 @@ struct Saved<'a> {
 /// Runs `endoloc experiment compare`.
 pub fn run(args: Args) -> Result<()> {
     common::prepare_out(&args.out, "compare.toml", args.force)?;
-    let data = Data::open(&args.data, &args.train, &args.test)?;
+    let data = Data::from_args(&args.data)?;
     let methods = if args.methods.is_empty() {
         Method::all()
     } else {
@@ -146,9 +139,9 @@ pub fn run(args: Args) -> Result<()> {
         .unwrap_or_else(|| args.out.join("models/siamese"));
     let saved = Saved {
         experiment: "compare",
-        data: args.data.display().to_string(),
-        train: &args.train,
-        test: &args.test,
+        data: args.data.data.display().to_string(),
+        train: &args.data.train,
+        test: &args.data.test,
         zones: &args.zones,
         epochs: args.epochs,
         seed: args.seed,

@@ -9,7 +9,7 @@ use endoloc_localize::map_io::load_map;
 use endoloc_net::ZoneClassifier;
 
 use super::common::{
-    self, Data, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
+    self, Data, DataArgs, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
     ensure_model, predict_zones, run_endoloc, write_and_evaluate,
 };
 
@@ -25,15 +25,9 @@ use super::common::{
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Dataset with a training (with sections.csv) and a test sequence.
-    #[arg(long, value_name = "DIR")]
-    data: PathBuf,
-    /// Training sequence.
-    #[arg(long, default_value = "train")]
-    train: String,
-    /// Test sequence.
-    #[arg(long, default_value = "test")]
-    test: String,
+    /// The training sequence needs sections.csv.
+    #[command(flatten)]
+    data: DataArgs,
     /// Output folder.
     #[arg(long, default_value = "experiments/expert")]
     out: PathBuf,
@@ -97,7 +91,7 @@ fn best_of_sweep(dir: &std::path::Path) -> Result<usize> {
 /// Runs `endoloc experiment expert`.
 pub fn run(args: Args) -> Result<()> {
     common::prepare_out(&args.out, "expert.md", args.force)?;
-    let data = Data::open(&args.data, &args.train, &args.test)?;
+    let data = Data::from_args(&args.data)?;
     if data.test.is_empty() {
         bail!("empty test sequence");
     }
@@ -144,7 +138,7 @@ pub fn run(args: Args) -> Result<()> {
     let table = common::markdown_table(&rows);
     let md = format!(
         "# Anatomical against uniform zones\n\nDataset `{}`, our method with 3 candidate zones.\n\n{table}\n![errors](expert.png)\n",
-        args.data.display()
+        args.data.data.display()
     );
     common::write_text(&args.out.join("expert.md"), &md)?;
     common::write_text(
@@ -156,7 +150,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut html = HtmlReport::new("endoloc — anatomical against uniform zones");
     html.push(endoloc_eval::Block::Paragraph(format!(
         "Dataset {}; both models trained with seed {}.",
-        args.data.display(),
+        args.data.data.display(),
         args.seed
     )))
     .push(common::html_table(&rows));

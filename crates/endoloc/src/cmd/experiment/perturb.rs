@@ -13,7 +13,9 @@ use endoloc_net::ZoneClassifier;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::common::{self, Data, FeatureCache, TrainSpec, ensure_map, ensure_model, pose_error};
+use super::common::{
+    self, Data, DataArgs, FeatureCache, TrainSpec, ensure_map, ensure_model, pose_error,
+};
 use crate::ui;
 
 /// Force the zone of each test frame to k ± e (k: its true zone, from the ground-truth pose)
@@ -27,15 +29,8 @@ use crate::ui;
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Dataset with a training and a test sequence.
-    #[arg(long, value_name = "DIR")]
-    data: PathBuf,
-    /// Training sequence.
-    #[arg(long, default_value = "train")]
-    train: String,
-    /// Test sequence.
-    #[arg(long, default_value = "test")]
-    test: String,
+    #[command(flatten)]
+    data: DataArgs,
     /// Output folder.
     #[arg(long, default_value = "experiments/perturb")]
     out: PathBuf,
@@ -101,7 +96,7 @@ fn mean_median(v: &mut [f64]) -> (Option<f64>, Option<f64>) {
 /// Runs `endoloc experiment perturb`.
 pub fn run(args: Args) -> Result<()> {
     common::prepare_out(&args.out, "perturb.md", args.force)?;
-    let data = Data::open(&args.data, &args.train, &args.test)?;
+    let data = Data::from_args(&args.data)?;
     let model = args
         .model
         .clone()
@@ -261,7 +256,7 @@ pub fn run(args: Args) -> Result<()> {
     html.push(endoloc_eval::Block::Paragraph(format!(
         "Each test frame is localized from zone k + e, k its true zone. Model {}, data {}.",
         model.display(),
-        args.data.display()
+        args.data.data.display()
     )))
     .push(endoloc_eval::Block::Table {
         header: header.iter().map(|s| s.to_string()).collect(),

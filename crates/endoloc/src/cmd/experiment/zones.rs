@@ -11,8 +11,8 @@ use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
 
 use super::common::{
-    self, Data, FeatureCache, TrainSpec, ZoneChoice, ensure_map, ensure_model, pose_error,
-    predict_zones, run_endoloc,
+    self, Data, DataArgs, FeatureCache, TrainSpec, ZoneChoice, ensure_map, ensure_model,
+    pose_error, predict_zones, run_endoloc,
 };
 
 /// Sweep the number of uniform zones: for every count from --from to --to (step --step),
@@ -33,15 +33,8 @@ use super::common::{
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Dataset with a training and a test sequence.
-    #[arg(long, value_name = "DIR")]
-    data: PathBuf,
-    /// Training sequence.
-    #[arg(long, default_value = "train")]
-    train: String,
-    /// Test sequence.
-    #[arg(long, default_value = "test")]
-    test: String,
+    #[command(flatten)]
+    data: DataArgs,
     /// Output folder.
     #[arg(long, default_value = "experiments/zones")]
     out: PathBuf,
@@ -174,7 +167,7 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     common::prepare_out(&args.out, RESULTS, args.force)?;
-    let data = Data::open(&args.data, &args.train, &args.test)?;
+    let data = Data::from_args(&args.data)?;
     let results_path = args.out.join(RESULTS);
     let mut rows = read_results(&results_path)?;
     let counts: Vec<usize> = (args.from..=args.to).step_by(args.step).collect();
@@ -367,7 +360,7 @@ fn write_outputs(args: &Args, rows: &[RunRow]) -> Result<()> {
     let mut md = format!(
         "# Zone-count sweep (the paper's Fig. 4)\n\nDataset `{}`, {} runs per count, {} epochs \
          per training, {} candidate zone(s). Each box: the mean errors of the runs.\n\n| {} |\n|{}\n",
-        args.data.display(),
+        args.data.data.display(),
         args.runs,
         args.epochs,
         args.candidate_zones,
@@ -388,7 +381,7 @@ fn write_outputs(args: &Args, rows: &[RunRow]) -> Result<()> {
     html.push(endoloc_eval::Block::Paragraph(format!(
         "Dataset {}, {} runs per count (training seeds 0…{}), {} epochs per training, {} \
          candidate zone(s). Each box shows the runs' mean errors.",
-        args.data.display(),
+        args.data.data.display(),
         args.runs,
         args.runs - 1,
         args.epochs,
