@@ -69,18 +69,58 @@ fn matching(c: &mut Criterion) {
     let b: Vec<Feature> = surf
         .detect_and_describe(&texture::textured_image(640, 480, 2))
         .expect("detect");
+    // A live frame against three zones of a densified map: 1300 × 4000 descriptors.
+    let frame = random_features(1300, 3);
+    let map = random_features(4000, 4);
     let mut group = c.benchmark_group("match");
     group.sample_size(20);
-    for (mode, parallel) in [("single", false), ("parallel", true)] {
-        let m = Matcher::new(MatcherConfig::default().with_parallel(parallel));
-        group.bench_function(format!("{}x{}/{mode}", a.len(), b.len()), |bch| {
-            bch.iter(|| {
-                m.match_descriptors(black_box(&a), black_box(&b))
-                    .expect("match")
-            })
-        });
+    for (q, t) in [(&a, &b), (&frame, &map)] {
+        for (mode, parallel) in [("single", false), ("parallel", true)] {
+            let m = Matcher::new(MatcherConfig::default().with_parallel(parallel));
+            group.bench_function(format!("{}x{}/{mode}", q.len(), t.len()), |bch| {
+                bch.iter(|| {
+                    m.match_descriptors(black_box(q), black_box(t))
+                        .expect("match")
+                })
+            });
+            group.bench_function(format!("{}x{}/{mode}_naive", q.len(), t.len()), |bch| {
+                bch.iter(|| {
+                    m.match_descriptors_naive(black_box(q), black_box(t))
+                        .expect("match")
+                })
+            });
+        }
     }
     group.finish();
+}
+
+/// `n` features with random unit 64-d descriptors and random Laplacian signs.
+fn random_features(n: usize, seed: u64) -> Vec<Feature> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let kp = endoloc_features::Keypoint {
+        x: 0.0,
+        y: 0.0,
+        scale: 2.0,
+        orientation: 0.0,
+        response: 100.0,
+        laplacian: 1,
+        octave: 0,
+    };
+    (0..n)
+        .map(|_| {
+            let mut d: Vec<f32> = (0..64).map(|_| rng.random::<f32>() - 0.5).collect();
+            let norm = d.iter().map(|v| v * v).sum::<f32>().sqrt();
+            d.iter_mut().for_each(|v| *v /= norm);
+            Feature {
+                keypoint: endoloc_features::Keypoint {
+                    laplacian: if rng.random::<bool>() { 1 } else { -1 },
+                    ..kp
+                },
+                descriptor: d,
+            }
+        })
+        .collect()
 }
 
 criterion_group!(benches, detect_describe, matching);

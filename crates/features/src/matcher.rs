@@ -1,6 +1,13 @@
 //! Brute-force descriptor matching: L2 distance, Lowe's ratio test, mutual-nearest check and
 //! Laplacian-sign gating. One API for image↔image and image↔map-point matching: anything
 //! that implements [`Describe`] (a descriptor and a Laplacian sign) can be matched.
+//!
+//! Distances come from one matrix product per block of queries:
+//! `‖q − t‖² = ‖q‖² + ‖t‖² − 2 q·t`, with `q·t` from `matrixmultiply`'s SGEMM (AVX2/FMA
+//! kernels chosen at run time). One pass over the product gives both directions: each query's
+//! nearest and second-nearest train item, and each train item's nearest query (the mutual
+//! check). [`Matcher::match_descriptors_naive`] is the plain double loop, kept as the
+//! reference for tests and benchmarks (`cargo bench -p endoloc-features --bench surf -- match`).
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -141,6 +148,46 @@ impl Matcher {
         let t_flat = flatten(train, dim);
         let q_sign: Vec<i8> = query.iter().map(|q| q.laplacian()).collect();
         let t_sign: Vec<i8> = train.iter().map(|t| t.laplacian()).collect();
+        let (forward, backward) = nearest_both(
+            &q_flat,
+            &q_sign,
+            &t_flat,
+            &t_sign,
+            dim,
+            cfg.laplacian_gating,
+            cfg.parallel,
+        );
+        Ok(self.accept(&forward, cfg.mutual.then_some(&backward[..])))
+    }
+
+    /// [`Matcher::match_descriptors`] by the plain double loop over descriptor pairs (twice
+    /// with the mutual check): the reference the fast path is tested and benchmarked against.
+    /// Same matches, up to ties between distances that differ by float rounding.
+    ///
+    /// # Errors
+    /// As [`Matcher::match_descriptors`].
+    pub fn match_descriptors_naive<Q: Describe + Sync, T: Describe + Sync>(
+        &self,
+        query: &[Q],
+        train: &[T],
+    ) -> Result<Vec<Match>, FeatureError> {
+        let cfg = &self.config;
+        if !(cfg.ratio > 0.0 && cfg.ratio <= 1.0) {
+            return Err(FeatureError::InvalidConfig {
+                field: "ratio",
+                reason: format!("is {}, expected a value in (0, 1]", cfg.ratio),
+            });
+        }
+        let Some(first) = query.first() else {
+            return Ok(Vec::new());
+        };
+        let dim = first.descriptor().len();
+        check_lengths(query, dim, "query")?;
+        check_lengths(train, dim, "train")?;
+        let q_flat = flatten(query, dim);
+        let t_flat = flatten(train, dim);
+        let q_sign: Vec<i8> = query.iter().map(|q| q.laplacian()).collect();
+        let t_sign: Vec<i8> = train.iter().map(|t| t.laplacian()).collect();
         let gating = cfg.laplacian_gating;
 
         let forward = nearest_all(
@@ -165,6 +212,14 @@ impl Matcher {
         } else {
             None
         };
+        let backward: Option<Vec<Option<usize>>> =
+            backward.map(|b| b.iter().map(|n| n.map(|n| n.best)).collect());
+        Ok(self.accept(&forward, backward.as_deref()))
+    }
+
+    /// The ratio, distance and mutual tests over the nearest neighbours.
+    fn accept(&self, forward: &[Option<Nearest>], backward: Option<&[Option<usize>]>) -> Vec<Match> {
+        let cfg = &self.config;
         let ratio2 = cfg.ratio * cfg.ratio;
         let max2 = cfg.max_distance * cfg.max_distance;
         let mut out = Vec::new();
@@ -176,8 +231,8 @@ impl Matcher {
             if n.d1 > max2 {
                 continue;
             }
-            if let Some(back) = &backward
-                && back[n.best].map(|b| b.best) != Some(qi)
+            if let Some(back) = backward
+                && back[n.best] != Some(qi)
             {
                 continue;
             }
@@ -187,7 +242,7 @@ impl Matcher {
                 distance: n.d1.sqrt(),
             });
         }
-        Ok(out)
+        out
     }
 }
 
@@ -215,6 +270,10 @@ fn flatten<D: Describe>(items: &[D], dim: usize) -> Vec<f32> {
     v
 }
 
+fn sign_slot(s: i8) -> usize {
+    (s.signum() + 1) as usize
+}
+
 fn signs_agree(a: i8, b: i8) -> bool {
     a == 0 || b == 0 || a == b
 }
@@ -238,7 +297,149 @@ fn sq_dist(a: &[f32], b: &[f32]) -> f32 {
     s
 }
 
-/// For each row of `a`, the nearest and second-nearest rows of `b` (squared L2).
+/// Queries per block of the distance matrix: the block's `rows × b` product stays within
+/// about 8 MB.
+fn block_rows(b_rows: usize) -> usize {
+    (2_000_000 / b_rows.max(1)).clamp(16, 256)
+}
+
+/// For each row of `a`, the nearest and second-nearest rows of `b`; for each row of `b`, the
+/// nearest row of `a` (squared L2 from one SGEMM per block of `a`; ties go to the lower
+/// index, so the result does not depend on `parallel`).
+fn nearest_both(
+    a: &[f32],
+    a_sign: &[i8],
+    b: &[f32],
+    b_sign: &[i8],
+    dim: usize,
+    gating: bool,
+    parallel: bool,
+) -> (Vec<Option<Nearest>>, Vec<Option<usize>>) {
+    let (na, nb) = if dim == 0 {
+        (a_sign.len(), b_sign.len())
+    } else {
+        (a.len() / dim, b.len() / dim)
+    };
+    if dim == 0 || na == 0 || nb == 0 {
+        return (vec![None; na], vec![None; nb]);
+    }
+    let norm2 = |v: &[f32]| -> Vec<f32> {
+        v.chunks_exact(dim)
+            .map(|r| r.iter().map(|x| x * x).sum())
+            .collect()
+    };
+    let (a_n2, b_n2) = (norm2(a), norm2(b));
+    // Per query sign (−1, 0, +1): 0 for the rows of `b` it may match, +∞ for the others.
+    let penalty: [Vec<f32>; 3] = [-1i8, 0, 1].map(|s| {
+        b_sign
+            .iter()
+            .map(|&t| {
+                if !gating || signs_agree(s, t) {
+                    0.0
+                } else {
+                    f32::INFINITY
+                }
+            })
+            .collect()
+    });
+    let rows = block_rows(nb);
+    // One block: its rows' nearest neighbours, and per row of `b` the block's nearest row.
+    let block = |bi: usize| -> (Vec<Option<Nearest>>, Vec<(f32, usize)>) {
+        let r0 = bi * rows;
+        let r = rows.min(na - r0);
+        let mut dots = vec![0f32; r * nb];
+        // SAFETY: `a[r0·dim..]` holds `r × dim` (row stride dim), `b` holds `nb × dim`, read
+        // as its transpose `dim × nb` (row stride 1, column stride dim), and `dots` is
+        // `r × nb` (row stride nb); no two of them alias.
+        unsafe {
+            matrixmultiply::sgemm(
+                r,
+                dim,
+                nb,
+                1.0,
+                a[r0 * dim..].as_ptr(),
+                dim as isize,
+                1,
+                b.as_ptr(),
+                1,
+                dim as isize,
+                0.0,
+                dots.as_mut_ptr(),
+                nb as isize,
+                1,
+            );
+        }
+        // Per row of `b`: this block's nearest distance and row of `a`.
+        let mut col_d = vec![f32::INFINITY; nb];
+        let mut col_i = vec![u32::MAX; nb];
+        let near = (0..r)
+            .map(|i| {
+                let ai = r0 + i;
+                let row = &mut dots[i * nb..(i + 1) * nb];
+                // Squared distances in place; gated pairs get +∞ (branch-free: vectorises).
+                let pen = &penalty[sign_slot(a_sign[ai])];
+                let an = a_n2[ai];
+                for ((d, &bn), &p) in row.iter_mut().zip(&b_n2).zip(pen.iter()) {
+                    *d = (an + bn - 2.0 * *d).max(0.0) + p;
+                }
+                // Branch-free so that it vectorises.
+                for ((&d, cd), ci) in row.iter().zip(col_d.iter_mut()).zip(col_i.iter_mut()) {
+                    let better = d < *cd;
+                    *cd = if better { d } else { *cd };
+                    *ci = if better { ai as u32 } else { *ci };
+                }
+                let mut n = Nearest {
+                    best: usize::MAX,
+                    d1: f32::INFINITY,
+                    d2: f32::INFINITY,
+                };
+                for (j, &d) in row.iter().enumerate() {
+                    if d < n.d2 {
+                        if d < n.d1 {
+                            n.d2 = n.d1;
+                            n.d1 = d;
+                            n.best = j;
+                        } else {
+                            n.d2 = d;
+                        }
+                    }
+                }
+                (n.best != usize::MAX).then_some(n)
+            })
+            .collect();
+        let col = col_d
+            .into_iter()
+            .zip(col_i)
+            .map(|(d, i)| (d, if i == u32::MAX { usize::MAX } else { i as usize }))
+            .collect();
+        (near, col)
+    };
+    let blocks = na.div_ceil(rows);
+    let parts: Vec<(Vec<Option<Nearest>>, Vec<(f32, usize)>)> = if parallel {
+        (0..blocks).into_par_iter().map(block).collect()
+    } else {
+        (0..blocks).map(block).collect()
+    };
+    let mut forward = Vec::with_capacity(na);
+    let mut col_best = vec![(f32::INFINITY, usize::MAX); nb];
+    // Blocks in order, strict `<`: a tie keeps the lower query index.
+    for (near, col) in parts {
+        forward.extend(near);
+        for (best, c) in col_best.iter_mut().zip(col) {
+            if c.0 < best.0 {
+                *best = c;
+            }
+        }
+    }
+    let backward = col_best
+        .into_iter()
+        .map(|(_, i)| (i != usize::MAX).then_some(i))
+        .collect();
+    (forward, backward)
+}
+
+/// For each row of `a`, the nearest and second-nearest rows of `b` (squared L2), by the
+/// plain loop.
 fn nearest_all(
     a: &[f32],
     a_sign: &[i8],
@@ -390,5 +591,55 @@ mod tests {
         .match_descriptors(&q, &t)
         .unwrap();
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn fast_path_gives_the_reference_matches() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        // Train items are noisy copies of some queries (true matches) mixed with distractors;
+        // lengths not multiples of the block size.
+        let unit = |rng: &mut rand_chacha::ChaCha8Rng| -> Vec<f32> {
+            let mut d: Vec<f32> = (0..64).map(|_| rng.random::<f32>() - 0.5).collect();
+            let n = d.iter().map(|v| v * v).sum::<f32>().sqrt();
+            d.iter_mut().for_each(|v| *v /= n);
+            d
+        };
+        let q: Vec<Feature> = (0..437)
+            .map(|i| feat(&unit(&mut rng), [1, -1, 0][i % 3]))
+            .collect();
+        let mut t: Vec<Feature> = Vec::new();
+        for (i, f) in q.iter().enumerate().step_by(2) {
+            let d: Vec<f32> = f
+                .descriptor
+                .iter()
+                .map(|v| v + 0.03 * (rng.random::<f32>() - 0.5))
+                .collect();
+            t.push(feat(&d, f.keypoint.laplacian));
+            if i % 5 == 0 {
+                t.push(feat(&unit(&mut rng), 1));
+            }
+        }
+        for cfg in [
+            MatcherConfig::default(),
+            MatcherConfig::default().with_mutual(false).with_ratio(0.9),
+            MatcherConfig::default()
+                .with_laplacian_gating(false)
+                .with_parallel(false),
+        ] {
+            let m = Matcher::new(cfg.clone());
+            let fast = m.match_descriptors(&q, &t).unwrap();
+            let naive = m.match_descriptors_naive(&q, &t).unwrap();
+            assert!(fast.len() >= 200, "{cfg:?}: {} matches", fast.len());
+            assert_eq!(fast.len(), naive.len(), "{cfg:?}");
+            for (a, b) in fast.iter().zip(&naive) {
+                assert_eq!((a.query, a.train), (b.query, b.train), "{cfg:?}");
+                assert!((a.distance - b.distance).abs() < 1e-3, "{a:?} vs {b:?}");
+            }
+        }
+        // Both directions of the empty cases.
+        let m = Matcher::new(MatcherConfig::default());
+        assert!(m.match_descriptors(&q, &[] as &[Feature]).unwrap().is_empty());
+        assert!(m.match_descriptors(&[] as &[Feature], &t).unwrap().is_empty());
     }
 }

@@ -16,7 +16,9 @@ pub mod map_io;
 pub mod pipeline;
 
 pub use map::{Map, MapConfig, MapPoint, MapSummary, ZoneMap, build_map};
-pub use pipeline::{FrameResult, LiveState, Localizer, LocalizerConfig, StageTimes};
+pub use pipeline::{
+    FrameResult, LiveState, Localizer, LocalizerConfig, RetryFeatures, StageTimes,
+};
 
 /// Errors of the localizer.
 #[derive(Debug, thiserror::Error)]

@@ -8,7 +8,12 @@
 //! 4. **Refinement and check**: [`endoloc_geometry::localize_pose`] — Gauss-Newton on SE(3)
 //!    with left perturbation from the prior, a RANSAC restart when the prior is poor, and the
 //!    validity check (`refined` / `init_only` / `rejected` with a reason).
+//!
+//! Beyond the paper, a frame that registers nowhere is described again at a lower SURF
+//! threshold and tried once more ([`LocalizerConfig::retry_threshold`]): weakly textured
+//! frames get the features they need, while the typical frame keeps the cheaper detection.
 
+use std::borrow::Cow;
 use std::time::Instant;
 
 use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
@@ -52,6 +57,10 @@ pub struct LocalizerConfig {
     /// little in a second or two; a zone median can be a zone away). The status stays
     /// `init_only`. 0 = always the zone median, as in the paper.
     pub hold_frames: usize,
+    /// A frame that registers nowhere with features at `surf.threshold` is described again
+    /// at this lower SURF threshold and tried once more (beyond the paper; its time counts in
+    /// the frame's SURF time). 0, or a value not below `surf.threshold`, = off.
+    pub retry_threshold: f32,
 }
 
 impl Default for LocalizerConfig {
@@ -66,6 +75,7 @@ impl Default for LocalizerConfig {
             track_frames: 5,
             recover_frames: 300,
             hold_frames: 60,
+            retry_threshold: 0.0,
         }
     }
 }
@@ -119,7 +129,35 @@ pub struct Localizer {
     map: Map,
     cfg: LocalizerConfig,
     surf: Surf,
+    /// SURF at [`LocalizerConfig::retry_threshold`], when that is on.
+    retry_surf: Option<Surf>,
     matcher: Matcher,
+}
+
+/// A frame's SURF features at [`LocalizerConfig::retry_threshold`], extracted beforehand.
+#[derive(Debug, Clone, Copy)]
+pub struct RetryFeatures<'a> {
+    /// The features (with [`Localizer::retry_surf`]).
+    pub features: &'a [Feature],
+    /// Their extraction time, ms: added to the frame's SURF time when the retry is used.
+    pub surf_ms: f64,
+}
+
+/// Where a frame's retry features come from.
+#[derive(Clone, Copy)]
+enum Retry<'a> {
+    /// None: no retry.
+    None,
+    /// Extracted beforehand.
+    Features(RetryFeatures<'a>),
+    /// Detected from the image when needed.
+    Image(&'a image::GrayImage),
+}
+
+impl<'a> From<Option<RetryFeatures<'a>>> for Retry<'a> {
+    fn from(r: Option<RetryFeatures<'a>>) -> Self {
+        r.map_or(Retry::None, Retry::Features)
+    }
 }
 
 impl Localizer {
@@ -142,12 +180,24 @@ impl Localizer {
         }
         classifier.check_compatible(&map.camera)?;
         let surf = cfg.surf.clone().init()?;
+        let retry_surf = if cfg.retry_threshold > 0.0 && cfg.retry_threshold < cfg.surf.threshold
+        {
+            Some(
+                cfg.surf
+                    .clone()
+                    .with_threshold(cfg.retry_threshold)
+                    .init()?,
+            )
+        } else {
+            None
+        };
         let matcher = Matcher::new(cfg.matcher.clone());
         Ok(Localizer {
             classifier,
             map,
             cfg,
             surf,
+            retry_surf,
             matcher,
         })
     }
@@ -319,24 +369,63 @@ impl Localizer {
             surf_ms: ms(t),
             ..Default::default()
         };
-        self.localize_features(&features, pred, chosen, times)
+        self.with_retry(&features, Retry::Image(img), times, |f, times| {
+            self.localize_candidates(f, pred, chosen, &[], times)
+        })
     }
 
     /// [`Localizer::localize_with_prediction`] for SURF features already extracted from the
-    /// frame (with this localizer's [`LocalizerConfig::surf`]): experiments that localize the
-    /// same frames many times extract them once. `times` carries the zone and SURF times
-    /// spent so far; matching and refinement times are added.
+    /// frame (with this localizer's [`Localizer::surf`], and `retry` with its
+    /// [`Localizer::retry_surf`] when that is on): experiments that localize the same frames
+    /// many times extract them once. `times` carries the zone and SURF times spent so far;
+    /// matching and refinement times are added.
     ///
     /// # Errors
     /// A zone out of range; invalid refinement input.
     pub fn localize_features(
         &self,
         features: &[Feature],
+        retry: Option<RetryFeatures<'_>>,
         pred: &ZonePrediction,
         chosen: usize,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
-        self.localize_candidates(features, pred, chosen, &[], times)
+        self.with_retry(features, retry.into(), times, |f, times| {
+            self.localize_candidates(f, pred, chosen, &[], times)
+        })
+    }
+
+    /// Runs `attempt` on `features`; when that does not give `refined` and a retry is
+    /// configured, on the retry features too (detected now from an image if need be). The
+    /// result carries the time of both attempts; when neither registers, the retry's verdict.
+    fn with_retry(
+        &self,
+        features: &[Feature],
+        retry: Retry<'_>,
+        times: StageTimes,
+        attempt: impl Fn(&[Feature], StageTimes) -> Result<FrameResult, LocalizeError>,
+    ) -> Result<FrameResult, LocalizeError> {
+        let first = attempt(features, times)?;
+        if first.status == Status::Refined {
+            return Ok(first);
+        }
+        let t = Instant::now();
+        let (dense, dense_ms): (Cow<'_, [Feature]>, f64) = match (retry, &self.retry_surf) {
+            (Retry::Features(r), Some(_)) => (Cow::Borrowed(r.features), r.surf_ms),
+            (Retry::Image(img), Some(surf)) => {
+                let f = surf.detect_and_describe(img)?;
+                (Cow::Owned(f), ms(t))
+            }
+            _ => return Ok(first),
+        };
+        let times = StageTimes {
+            surf_ms: times.surf_ms + dense_ms,
+            ..times
+        };
+        let mut second = attempt(&dense, times)?;
+        second.times.matching_ms += first.times.matching_ms;
+        second.times.refine_ms += first.times.refine_ms;
+        Ok(second)
     }
 
     /// [`Localizer::localize_features`], then `extra` zones (not already tried) if none of the
@@ -423,6 +512,11 @@ impl Localizer {
     pub fn surf(&self) -> &Surf {
         &self.surf
     }
+
+    /// The SURF extractor of the retry ([`LocalizerConfig::retry_threshold`]), when on.
+    pub fn retry_surf(&self) -> Option<&Surf> {
+        self.retry_surf.as_ref()
+    }
 }
 
 /// State of a live stream ([`Localizer::localize_live`]): the causal zone filter and the
@@ -482,11 +576,12 @@ impl Localizer {
             surf_ms: ms(t),
             ..Default::default()
         };
-        self.localize_live_features(state, &features, &pred, times)
+        self.live_step(state, &features, Retry::Image(img), &pred, times)
     }
 
     /// [`Localizer::localize_live`] for a frame already classified (`pred`, not yet folded
-    /// into the filter) and described (`features`).
+    /// into the filter) and described (`features`, and `retry` as in
+    /// [`Localizer::localize_features`]).
     ///
     /// # Errors
     /// As [`Localizer::localize_features`].
@@ -494,12 +589,52 @@ impl Localizer {
         &self,
         state: &mut LiveState,
         features: &[Feature],
+        retry: Option<RetryFeatures<'_>>,
+        pred: &ZonePrediction,
+        times: StageTimes,
+    ) -> Result<FrameResult, LocalizeError> {
+        self.live_step(state, features, retry.into(), pred, times)
+    }
+
+    /// One live frame: fold `pred` into the filter, register (with the retry), then the hold
+    /// rule, and remember a refined pose.
+    fn live_step(
+        &self,
+        state: &mut LiveState,
+        features: &[Feature],
+        retry: Retry<'_>,
         pred: &ZonePrediction,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
         let frame = state.frame;
         state.frame += 1;
         let zone = state.filter.update(pred);
+        let seen: &LiveState = state;
+        let mut r = self.with_retry(features, retry, times, |f, times| {
+            self.live_register(seen, frame, zone, f, pred, times)
+        })?;
+        if r.status == Status::InitOnly
+            && let Some((pose, at)) = state.last
+            && self.cfg.hold_frames > 0
+            && frame - at <= self.cfg.hold_frames
+        {
+            r.t_wc = Some(pose);
+        }
+        self.remember(state, &r, frame);
+        Ok(r)
+    }
+
+    /// Registration of live frame `frame` (filtered zone `zone`): from the last refined pose
+    /// when it is recent, else the candidate zones plus the zones around the last pose.
+    fn live_register(
+        &self,
+        state: &LiveState,
+        frame: usize,
+        zone: usize,
+        features: &[Feature],
+        pred: &ZonePrediction,
+        times: StageTimes,
+    ) -> Result<FrameResult, LocalizeError> {
         let recent = state
             .last
             .filter(|(_, at)| self.cfg.track_frames > 0 && frame - at <= self.cfg.track_frames);
@@ -510,7 +645,6 @@ impl Localizer {
             let score = pred.zone_scores.get(z).copied().unwrap_or(f32::NAN);
             let r = self.register_from(features, z, &pose, score, times)?;
             if r.status == Status::Refined {
-                self.remember(state, &r, frame);
                 return Ok(r);
             }
             spent.matching_ms += r.times.matching_ms;
@@ -530,14 +664,6 @@ impl Localizer {
         let mut r = self.localize_candidates(features, pred, zone, &extra, times)?;
         r.times.matching_ms += spent.matching_ms;
         r.times.refine_ms += spent.refine_ms;
-        if r.status == Status::InitOnly
-            && let Some((pose, at)) = state.last
-            && self.cfg.hold_frames > 0
-            && frame - at <= self.cfg.hold_frames
-        {
-            r.t_wc = Some(pose);
-        }
-        self.remember(state, &r, frame);
         Ok(r)
     }
 

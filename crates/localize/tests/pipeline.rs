@@ -4,12 +4,15 @@
 //! - with the true zone, refined poses are within millimetres of the ground truth;
 //! - in live mode, tracking from the last refined pose keeps frames refined even when the
 //!   classifier points to a far-away zone, and without tracking they are not;
-//! - a textureless frame is `init_only` with the reason, not an error.
+//! - a textureless frame is `init_only` with the reason, not an error;
+//! - a frame with too few features at the test threshold registers with the retry features.
 
 use burn::module::Module;
 use endoloc_data::Dataset;
 use endoloc_geometry::{Pose, Status};
-use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, MapConfig, StageTimes, build_map};
+use endoloc_localize::{
+    FrameResult, Localizer, LocalizerConfig, MapConfig, RetryFeatures, StageTimes, build_map,
+};
 use endoloc_net::database::{DescriptorDatabase, ScoreRule};
 use endoloc_net::model::{FORMAT_VERSION, ModelConfig};
 use endoloc_net::{
@@ -154,6 +157,7 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
         let r = loc
             .localize_features(
                 &features[i],
+                None,
                 &predict(truth[i]),
                 truth[i],
                 StageTimes::default(),
@@ -202,6 +206,7 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
                 .localize_live_features(
                     &mut state,
                     &features[i],
+                    None,
                     &predict(wrong(i)),
                     StageTimes::default(),
                 )
@@ -255,4 +260,54 @@ fn a_textureless_frame_is_init_only_with_a_reason() {
         Some("too_few_correspondences")
     );
     assert!(r.t_wc.is_some(), "init_only reports the zone's median pose");
+}
+
+#[test]
+fn a_frame_without_enough_features_registers_with_the_retry_features() {
+    let f = fixture();
+    let test = f.ds.sequence("test").unwrap();
+    let cfg = LocalizerConfig {
+        retry_threshold: 25.0,
+        ..LocalizerConfig::default()
+    };
+    let loc = localizer(f, cfg);
+    let retry_surf = loc.retry_surf().expect("retry on: 25 is below the test threshold 50");
+    assert_eq!(retry_surf.config().threshold, 25.0);
+    // Frames that register in their true zone from all their features at threshold 25.
+    let mut checked = 0;
+    for i in (0..test.len()).step_by(15) {
+        let img = test.load_gray(i).unwrap();
+        let dense = retry_surf.detect_and_describe(&img).unwrap();
+        let zone = loc.classifier().truth_zone(&test.poses[i].pose).unwrap();
+        let pred = predict(zone);
+        let times = StageTimes {
+            surf_ms: 1.0,
+            ..StageTimes::default()
+        };
+        let alone = loc.localize_features(&dense, None, &pred, zone, times).unwrap();
+        if alone.status != Status::Refined {
+            continue;
+        }
+        // Five features cannot register; the retry's can, and its SURF time is counted.
+        let few = &dense[..5.min(dense.len())];
+        let without = loc.localize_features(few, None, &pred, zone, times).unwrap();
+        assert_eq!(without.status, Status::InitOnly, "frame {i}");
+        let retry = RetryFeatures {
+            features: &dense,
+            surf_ms: 7.0,
+        };
+        let with = loc
+            .localize_features(few, Some(retry), &pred, zone, times)
+            .unwrap();
+        assert_eq!(with.status, Status::Refined, "frame {i}");
+        assert_eq!(with.t_wc, alone.t_wc, "frame {i}: the retry's pose");
+        assert_eq!(with.times.surf_ms, 8.0, "frame {i}: both detections counted");
+        // Live mode retries the same way.
+        let live = loc
+            .localize_live_features(&mut loc.live_state(), few, Some(retry), &pred, times)
+            .unwrap();
+        assert_eq!(live.status, Status::Refined, "frame {i} live");
+        checked += 1;
+    }
+    assert!(checked >= 5, "only {checked} frames registered at threshold 25");
 }

@@ -31,9 +31,9 @@ pub struct Args {
     /// Training epochs (the demo's short schedule; `endoloc train` defaults to more).
     #[arg(long, default_value_t = 40)]
     epochs: usize,
-    /// SURF threshold for maps and test frames (50 suits the demo's 320×240 images; the paper's
-    /// 200 is meant for 640×480).
-    #[arg(long, default_value_t = 50.0)]
+    /// SURF threshold of the map; test frames are described at twice it and retried at it
+    /// (the paper's 200 is meant for larger, richer images).
+    #[arg(long, default_value_t = cmd::localize::DEFAULT_MAP_THRESHOLD)]
     threshold: f64,
     /// Master seed of the simulation and the training.
     #[arg(long, default_value_t = 0)]

@@ -26,7 +26,7 @@ use crate::cmd::demo::{parse, stage};
 ///   seed = 0
 ///   [map]
 ///   images_per_zone = 8
-///   threshold = 50.0
+///   threshold = 25.0                   # map; test frames at twice it, retried at it
 ///   [localize]
 ///   live = false
 ///   candidate_zones = 3
@@ -103,7 +103,7 @@ impl Default for MapStage {
     fn default() -> Self {
         MapStage {
             images_per_zone: 8,
-            threshold: 50.0,
+            threshold: cmd::localize::DEFAULT_MAP_THRESHOLD,
         }
     }
 }

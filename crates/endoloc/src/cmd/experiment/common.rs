@@ -15,7 +15,7 @@ use endoloc_eval::{
 use endoloc_features::{Feature, SurfConfig};
 use endoloc_geometry::{Pose, Status};
 use endoloc_localize::map_io::load_map;
-use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, StageTimes};
+use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, RetryFeatures, StageTimes};
 use endoloc_net::{ZoneClassifier, ZonePrediction, viterbi};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -169,51 +169,107 @@ pub(super) fn ensure_map(
     cmd::localize::run_map(parse(&argv)?)
 }
 
-/// SURF features of every test frame, extracted once with one configuration.
+/// SURF features of every test frame, extracted once: at the localizer's test-frame
+/// threshold and, when the retry is on, at its retry threshold
+/// ([`endoloc_localize::LocalizerConfig::retry_threshold`]).
 pub(super) struct FeatureCache {
-    /// The SURF settings they were extracted with.
+    /// The SURF settings of the test frames.
     pub surf: SurfConfig,
+    /// The retry threshold (0: no retry features).
+    pub retry_threshold: f32,
     /// Features per frame.
     pub features: Vec<Vec<Feature>>,
     /// Extraction time per frame, ms (one thread per frame).
     pub surf_ms: Vec<f64>,
+    /// Features per frame at the retry threshold (empty when the retry is off).
+    pub retry: Vec<Vec<Feature>>,
+    /// Their extraction time, ms.
+    pub retry_ms: Vec<f64>,
 }
 
 impl FeatureCache {
-    pub fn extract(seq: &Sequence, surf: &SurfConfig) -> Result<Self> {
+    /// Extracts the features of `seq` with `surf`, and at `retry_threshold` when that is
+    /// positive and below `surf`'s.
+    pub fn extract(seq: &Sequence, surf: &SurfConfig, retry_threshold: f32) -> Result<Self> {
         let extractor = surf.clone().init().context("SURF settings")?;
+        let retry_threshold = effective_retry(surf, retry_threshold);
+        let retry = (retry_threshold > 0.0)
+            .then(|| surf.clone().with_threshold(retry_threshold).init())
+            .transpose()
+            .context("SURF retry settings")?;
         let bar = ui::progress_bar(seq.len() as u64, "SURF");
-        let out: Result<Vec<(Vec<Feature>, f64)>> = (0..seq.len())
+        type Timed = (Vec<Feature>, f64);
+        let out: Result<Vec<(Timed, Timed)>> = (0..seq.len())
             .into_par_iter()
             .map(|i| {
                 let img = seq.load_gray(i)?;
-                let t = Instant::now();
-                let f = extractor
-                    .detect_and_describe(&img)
-                    .with_context(|| format!("SURF on {}", seq.image_paths[i].display()))?;
+                let timed = |s: &endoloc_features::Surf| -> Result<Timed> {
+                    let t = Instant::now();
+                    let f = s
+                        .detect_and_describe(&img)
+                        .with_context(|| format!("SURF on {}", seq.image_paths[i].display()))?;
+                    Ok((f, t.elapsed().as_secs_f64() * 1e3))
+                };
+                let primary = timed(&extractor)?;
+                let dense = match &retry {
+                    Some(s) => timed(s)?,
+                    None => (Vec::new(), 0.0),
+                };
                 bar.inc(1);
-                Ok((f, t.elapsed().as_secs_f64() * 1e3))
+                Ok((primary, dense))
             })
             .collect();
         bar.finish_and_clear();
-        let (features, surf_ms) = out?.into_iter().unzip();
+        let (primary, dense): (Vec<Timed>, Vec<Timed>) = out?.into_iter().unzip();
+        let (features, surf_ms) = primary.into_iter().unzip();
+        let (retry, retry_ms) = if retry_threshold > 0.0 {
+            dense.into_iter().unzip()
+        } else {
+            (Vec::new(), Vec::new())
+        };
         Ok(Self {
             surf: surf.clone(),
+            retry_threshold,
             features,
             surf_ms,
+            retry,
+            retry_ms,
         })
     }
 
-    /// Reuses `cache` when it was extracted with `surf`, else extracts anew into it.
+    /// Reuses `cache` when it was extracted for the test-frame settings that go with a map
+    /// built with `map_surf` ([`cmd::localize::test_frame_surf`]), else extracts anew into it.
     pub fn get<'a>(
         cache: &'a mut Option<FeatureCache>,
         seq: &Sequence,
-        surf: &SurfConfig,
+        map_surf: &SurfConfig,
     ) -> Result<&'a FeatureCache> {
-        if cache.as_ref().is_none_or(|c| &c.surf != surf) {
-            *cache = Some(Self::extract(seq, surf)?);
+        let cfg = cmd::localize::test_frame_surf(map_surf, None, None);
+        let retry = effective_retry(&cfg.surf, cfg.retry_threshold);
+        if cache
+            .as_ref()
+            .is_none_or(|c| c.surf != cfg.surf || c.retry_threshold != retry)
+        {
+            *cache = Some(Self::extract(seq, &cfg.surf, cfg.retry_threshold)?);
         }
         cache.as_ref().context("feature cache")
+    }
+
+    /// The retry features of frame `i`, if any.
+    pub fn retry_of(&self, i: usize) -> Option<RetryFeatures<'_>> {
+        self.retry.get(i).map(|f| RetryFeatures {
+            features: f,
+            surf_ms: self.retry_ms[i],
+        })
+    }
+}
+
+/// The retry threshold in use: `retry` when positive and below `surf`'s threshold, else 0.
+fn effective_retry(surf: &SurfConfig, retry: f32) -> f32 {
+    if retry > 0.0 && retry < surf.threshold {
+        retry
+    } else {
+        0.0
     }
 }
 
@@ -269,6 +325,7 @@ pub(super) fn run_endoloc(
     let cfg = LocalizerConfig {
         candidate_zones,
         surf: features.surf.clone(),
+        retry_threshold: features.retry_threshold,
         ..LocalizerConfig::default()
     };
     let localizer = Localizer::new(classifier, map, cfg)?;
@@ -287,6 +344,7 @@ pub(super) fn run_endoloc(
             out.push(localizer.localize_live_features(
                 &mut state,
                 &features.features[i],
+                features.retry_of(i),
                 &preds[i],
                 times(i),
             )?);
@@ -307,8 +365,13 @@ pub(super) fn run_endoloc(
     let results: Result<Vec<FrameResult>> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let r =
-                localizer.localize_features(&features.features[i], &preds[i], chosen[i], times(i));
+            let r = localizer.localize_features(
+                &features.features[i],
+                features.retry_of(i),
+                &preds[i],
+                chosen[i],
+                times(i),
+            );
             bar.inc(1);
             Ok(r?)
         })

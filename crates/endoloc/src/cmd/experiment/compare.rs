@@ -43,8 +43,9 @@ pub struct Args {
     /// Seed of every training.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// SURF threshold of the maps and test frames (see `endoloc map --help`).
-    #[arg(long, default_value_t = 50.0)]
+    /// SURF threshold of the maps; test frames are described at twice it and retried at it
+    /// (as `endoloc localize` does by default; see `endoloc map --help`).
+    #[arg(long, default_value_t = crate::cmd::localize::DEFAULT_MAP_THRESHOLD)]
     threshold: f64,
     /// Use this trained Siamese model (with or without a map) instead of training one.
     #[arg(long, value_name = "DIR")]

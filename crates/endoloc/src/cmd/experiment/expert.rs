@@ -46,8 +46,9 @@ pub struct Args {
     /// Training seed.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// SURF threshold of the maps and test frames.
-    #[arg(long, default_value_t = 50.0)]
+    /// SURF threshold of the maps; test frames are described at twice it and retried at it
+    /// (as `endoloc localize` does by default; see `endoloc map --help`).
+    #[arg(long, default_value_t = crate::cmd::localize::DEFAULT_MAP_THRESHOLD)]
     threshold: f64,
     /// Use an output folder that holds something else.
     #[arg(long)]

@@ -57,7 +57,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// SURF threshold of a map built here and of the test frames.
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = crate::cmd::localize::DEFAULT_MAP_THRESHOLD)]
     threshold: f64,
     /// Use an output folder that holds something else.
     #[arg(long)]
@@ -131,7 +131,7 @@ pub fn run(args: Args) -> Result<()> {
             ..LocalizerConfig::default()
         },
     )?;
-    let features = FeatureCache::extract(&data.test, &surf)?;
+    let features = FeatureCache::extract(&data.test, &surf, 0.0)?;
     let frames: Vec<usize> = (0..data.test.len()).step_by(args.every.max(1)).collect();
     let max = args.max as i64;
     let bar = ui::progress_bar(((2 * max + 1) as usize * frames.len()) as u64, "perturb");

@@ -53,8 +53,9 @@ pub struct Args {
     /// Training epochs per run (the `fast` schedule with fewer epochs, to fit a night).
     #[arg(long, default_value_t = 30)]
     epochs: usize,
-    /// SURF threshold of the maps and test frames.
-    #[arg(long, default_value_t = 50.0)]
+    /// SURF threshold of the maps; test frames are described at twice it and retried at it
+    /// (as `endoloc localize` does by default; see `endoloc map --help`).
+    #[arg(long, default_value_t = crate::cmd::localize::DEFAULT_MAP_THRESHOLD)]
     threshold: f64,
     /// Zones tried per frame (1 = the paper's rule).
     #[arg(long, default_value_t = 3)]
