@@ -218,7 +218,11 @@ impl Matcher {
     }
 
     /// The ratio, distance and mutual tests over the nearest neighbours.
-    fn accept(&self, forward: &[Option<Nearest>], backward: Option<&[Option<usize>]>) -> Vec<Match> {
+    fn accept(
+        &self,
+        forward: &[Option<Nearest>],
+        backward: Option<&[Option<usize>]>,
+    ) -> Vec<Match> {
         let cfg = &self.config;
         let ratio2 = cfg.ratio * cfg.ratio;
         let max2 = cfg.max_distance * cfg.max_distance;
@@ -297,6 +301,10 @@ fn sq_dist(a: &[f32], b: &[f32]) -> f32 {
     s
 }
 
+/// Per block of queries: each query's nearest neighbours, and per train item the block's
+/// nearest query (squared distance, index).
+type BlockNearest = (Vec<Option<Nearest>>, Vec<(f32, usize)>);
+
 /// Queries per block of the distance matrix: the block's `rows × b` product stays within
 /// about 8 MB.
 fn block_rows(b_rows: usize) -> usize {
@@ -315,10 +323,9 @@ fn nearest_both(
     gating: bool,
     parallel: bool,
 ) -> (Vec<Option<Nearest>>, Vec<Option<usize>>) {
-    let (na, nb) = if dim == 0 {
-        (a_sign.len(), b_sign.len())
-    } else {
-        (a.len() / dim, b.len() / dim)
+    let (na, nb) = match (a.len().checked_div(dim), b.len().checked_div(dim)) {
+        (Some(na), Some(nb)) => (na, nb),
+        _ => (a_sign.len(), b_sign.len()),
     };
     if dim == 0 || na == 0 || nb == 0 {
         return (vec![None; na], vec![None; nb]);
@@ -344,7 +351,7 @@ fn nearest_both(
     });
     let rows = block_rows(nb);
     // One block: its rows' nearest neighbours, and per row of `b` the block's nearest row.
-    let block = |bi: usize| -> (Vec<Option<Nearest>>, Vec<(f32, usize)>) {
+    let block = |bi: usize| -> BlockNearest {
         let r0 = bi * rows;
         let r = rows.min(na - r0);
         let mut dots = vec![0f32; r * nb];
@@ -410,12 +417,21 @@ fn nearest_both(
         let col = col_d
             .into_iter()
             .zip(col_i)
-            .map(|(d, i)| (d, if i == u32::MAX { usize::MAX } else { i as usize }))
+            .map(|(d, i)| {
+                (
+                    d,
+                    if i == u32::MAX {
+                        usize::MAX
+                    } else {
+                        i as usize
+                    },
+                )
+            })
             .collect();
         (near, col)
     };
     let blocks = na.div_ceil(rows);
-    let parts: Vec<(Vec<Option<Nearest>>, Vec<(f32, usize)>)> = if parallel {
+    let parts: Vec<BlockNearest> = if parallel {
         (0..blocks).into_par_iter().map(block).collect()
     } else {
         (0..blocks).map(block).collect()
@@ -639,7 +655,15 @@ mod tests {
         }
         // Both directions of the empty cases.
         let m = Matcher::new(MatcherConfig::default());
-        assert!(m.match_descriptors(&q, &[] as &[Feature]).unwrap().is_empty());
-        assert!(m.match_descriptors(&[] as &[Feature], &t).unwrap().is_empty());
+        assert!(
+            m.match_descriptors(&q, &[] as &[Feature])
+                .unwrap()
+                .is_empty()
+        );
+        assert!(
+            m.match_descriptors(&[] as &[Feature], &t)
+                .unwrap()
+                .is_empty()
+        );
     }
 }

@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::camera::Camera;
-use crate::pnp::{RansacConfig, ransac_pnp};
+use crate::pnp::{RansacConfig, RansacError, ransac_pnp};
 use crate::pose::Pose;
 use crate::refine_pose::{PoseEstimate, RefineConfig, refine_pose};
 use crate::validity::{Reason, Status, ValidityConfig, Verdict};
@@ -150,6 +150,8 @@ pub fn localize_pose(
     let mut best: Option<PoseEstimate> = from_prior.as_ref().ok().cloned();
     let mut last_error: Option<String> = from_prior.as_ref().err().map(|e| e.to_string());
     let mut used_ransac = false;
+    // RANSAC's best inlier count when it found no consensus.
+    let mut no_consensus: Option<(usize, usize)> = None;
     if !prior_good || cfg.always_ransac {
         used_ransac = true;
         match ransac_pnp(points_world, pixels, camera, &cfg.ransac) {
@@ -162,6 +164,13 @@ pub fn localize_pose(
                 Err(e) => last_error = Some(e.to_string()),
             },
             Err(e) => {
+                if let RansacError::NoConsensus {
+                    best_inliers,
+                    min_inliers,
+                } = e
+                {
+                    no_consensus = Some((best_inliers, min_inliers));
+                }
                 if best.is_none() {
                     last_error = Some(e.to_string());
                 }
@@ -169,10 +178,36 @@ pub fn localize_pose(
         }
     }
     let Some(estimate) = best else {
-        let detail = last_error.unwrap_or_else(|| "no pose found".to_owned());
-        let reason = Reason::DegenerateGeometry { detail };
+        // No pose at all. When RANSAC found no pose that enough correspondences agree with
+        // and the map points are spread in space, the matches are mostly wrong: too few
+        // inliers. Collinear or coincident points leave the pose unobservable: degenerate.
+        let reason = match no_consensus {
+            Some((count, min)) if !collinear(points_world) => Reason::TooFewInliers { count, min },
+            _ => Reason::DegenerateGeometry {
+                detail: last_error.unwrap_or_else(|| "no pose found".to_owned()),
+            },
+        };
         return Ok(report(v.local_failure(reason), None, used_ransac));
     };
     let verdict = v.check(&estimate, prior, n);
     Ok(report(verdict, Some(estimate), used_ransac))
+}
+
+/// Whether `points` lie (nearly) on one line or at one point: the second eigenvalue of their
+/// scatter matrix below 1e-9 of the first (or no spread at all).
+fn collinear(points: &[Point3<f64>]) -> bool {
+    if points.len() < 3 {
+        return true;
+    }
+    let mean = points
+        .iter()
+        .fold(nalgebra::Vector3::zeros(), |a, p| a + p.coords)
+        / points.len() as f64;
+    let scatter = points.iter().fold(nalgebra::Matrix3::zeros(), |a, p| {
+        let d = p.coords - mean;
+        a + d * d.transpose()
+    });
+    let mut ev: Vec<f64> = scatter.symmetric_eigenvalues().iter().copied().collect();
+    ev.sort_by(|a, b| b.total_cmp(a));
+    !(ev[0] > 0.0 && ev[1] > 1e-9 * ev[0])
 }

@@ -180,6 +180,13 @@ fn degenerate_and_garbage_input_never_panic() {
         .collect();
     let loc = localize_pose(&s.t_wc, &s.points_world[..100], &noise, &s.camera, &cfg).unwrap();
     assert_ne!(loc.verdict.status, Status::Refined, "{:?}", loc.verdict);
+    // Wrong matches are reported as such, not as degenerate geometry.
+    assert_eq!(
+        loc.verdict.reason.as_ref().map(Reason::code),
+        Some("too_few_inliers"),
+        "{:?}",
+        loc.verdict
+    );
 
     // Points behind the camera (mirrored through it), seen at their mirrored pixels.
     let behind: Vec<Point3<f64>> = s

@@ -16,9 +16,7 @@ pub mod map_io;
 pub mod pipeline;
 
 pub use map::{Map, MapConfig, MapPoint, MapSummary, ZoneMap, build_map};
-pub use pipeline::{
-    FrameResult, LiveState, Localizer, LocalizerConfig, RetryFeatures, StageTimes,
-};
+pub use pipeline::{FrameResult, LiveState, Localizer, LocalizerConfig, RetryFeatures, StageTimes};
 
 /// Errors of the localizer.
 #[derive(Debug, thiserror::Error)]

@@ -180,8 +180,7 @@ impl Localizer {
         }
         classifier.check_compatible(&map.camera)?;
         let surf = cfg.surf.clone().init()?;
-        let retry_surf = if cfg.retry_threshold > 0.0 && cfg.retry_threshold < cfg.surf.threshold
-        {
+        let retry_surf = if cfg.retry_threshold > 0.0 && cfg.retry_threshold < cfg.surf.threshold {
             Some(
                 cfg.surf
                     .clone()

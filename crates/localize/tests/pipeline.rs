@@ -271,7 +271,9 @@ fn a_frame_without_enough_features_registers_with_the_retry_features() {
         ..LocalizerConfig::default()
     };
     let loc = localizer(f, cfg);
-    let retry_surf = loc.retry_surf().expect("retry on: 25 is below the test threshold 50");
+    let retry_surf = loc
+        .retry_surf()
+        .expect("retry on: 25 is below the test threshold 50");
     assert_eq!(retry_surf.config().threshold, 25.0);
     // Frames that register in their true zone from all their features at threshold 25.
     let mut checked = 0;
@@ -284,13 +286,17 @@ fn a_frame_without_enough_features_registers_with_the_retry_features() {
             surf_ms: 1.0,
             ..StageTimes::default()
         };
-        let alone = loc.localize_features(&dense, None, &pred, zone, times).unwrap();
+        let alone = loc
+            .localize_features(&dense, None, &pred, zone, times)
+            .unwrap();
         if alone.status != Status::Refined {
             continue;
         }
         // Five features cannot register; the retry's can, and its SURF time is counted.
         let few = &dense[..5.min(dense.len())];
-        let without = loc.localize_features(few, None, &pred, zone, times).unwrap();
+        let without = loc
+            .localize_features(few, None, &pred, zone, times)
+            .unwrap();
         assert_eq!(without.status, Status::InitOnly, "frame {i}");
         let retry = RetryFeatures {
             features: &dense,
@@ -301,7 +307,10 @@ fn a_frame_without_enough_features_registers_with_the_retry_features() {
             .unwrap();
         assert_eq!(with.status, Status::Refined, "frame {i}");
         assert_eq!(with.t_wc, alone.t_wc, "frame {i}: the retry's pose");
-        assert_eq!(with.times.surf_ms, 8.0, "frame {i}: both detections counted");
+        assert_eq!(
+            with.times.surf_ms, 8.0,
+            "frame {i}: both detections counted"
+        );
         // Live mode retries the same way.
         let live = loc
             .localize_live_features(&mut loc.live_state(), few, Some(retry), &pred, times)
@@ -309,5 +318,8 @@ fn a_frame_without_enough_features_registers_with_the_retry_features() {
         assert_eq!(live.status, Status::Refined, "frame {i} live");
         checked += 1;
     }
-    assert!(checked >= 5, "only {checked} frames registered at threshold 25");
+    assert!(
+        checked >= 5,
+        "only {checked} frames registered at threshold 25"
+    );
 }

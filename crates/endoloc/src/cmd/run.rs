@@ -9,7 +9,8 @@ use crate::cmd;
 use crate::cmd::demo::{parse, stage};
 
 /// Run simulate (or use an existing dataset), train, map, localize and eval from one TOML file.
-/// The file is copied to OUT/experiment.toml so the run can be repeated from its own outputs.
+/// The file is copied to OUT/experiment.toml so the run can be repeated from its own outputs;
+/// the wall time of every stage is printed at the end and written to OUT/timings.csv.
 ///
 /// Example experiment.toml (every table but `out` is optional; values shown are defaults
 /// unless marked):
@@ -149,6 +150,13 @@ pub fn run(args: Args) -> Result<()> {
     let p = |rel: &str| exp.out.join(rel).display().to_string();
     let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<String>>();
     let force: &[&str] = if args.force { &["--force"] } else { &[] };
+    let mut timings: Vec<(&str, f64)> = Vec::new();
+    let mut timed = |name: &'static str, f: &mut dyn FnMut() -> Result<()>| -> Result<()> {
+        let t = std::time::Instant::now();
+        f()?;
+        timings.push((name, t.elapsed().as_secs_f64()));
+        Ok(())
+    };
 
     let data: PathBuf = match (&exp.data, &exp.simulate) {
         (Some(d), _) => d.clone(),
@@ -164,7 +172,7 @@ pub fn run(args: Args) -> Result<()> {
             ]);
             argv.extend(s(force));
             stage("simulate", &argv);
-            cmd::simulate::run(parse(&argv)?)?;
+            timed("simulate", &mut || cmd::simulate::run(parse(&argv)?))?;
             exp.out.join("data")
         }
         (None, None) => unreachable!("checked above"),
@@ -189,7 +197,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     train.extend(s(force));
     stage("train", &train);
-    cmd::train::run(parse(&train)?)?;
+    timed("train", &mut || cmd::train::run(parse(&train)?))?;
 
     let mut map = s(&[
         "map",
@@ -204,7 +212,7 @@ pub fn run(args: Args) -> Result<()> {
     ]);
     map.extend(s(force));
     stage("map", &map);
-    cmd::localize::run_map(parse(&map)?)?;
+    timed("map", &mut || cmd::localize::run_map(parse(&map)?))?;
 
     let test = Path::new(&data_s).join("test").display().to_string();
     let mut loc = s(&[
@@ -225,7 +233,9 @@ pub fn run(args: Args) -> Result<()> {
     }
     loc.extend(s(force));
     stage("localize", &loc);
-    cmd::localize::run_localize(parse(&loc)?)?;
+    timed("localize", &mut || {
+        cmd::localize::run_localize(parse(&loc)?)
+    })?;
 
     let gt = Path::new(&test).join("poses.txt").display().to_string();
     let mut eval = s(&[
@@ -241,5 +251,18 @@ pub fn run(args: Args) -> Result<()> {
     ]);
     eval.extend(s(force));
     stage("eval", &eval);
-    cmd::eval::run(parse(&eval)?)
+    timed("eval", &mut || cmd::eval::run(parse(&eval)?))?;
+
+    let total: f64 = timings.iter().map(|t| t.1).sum();
+    let mut csv = String::from("stage,seconds\n");
+    eprintln!("\nstage       wall s");
+    for (name, secs) in timings.iter().chain([&("total", total)]) {
+        eprintln!("{name:<10} {secs:>7.1}");
+        csv.push_str(&format!("{name},{secs:.2}\n"));
+    }
+    let path = exp.out.join("timings.csv");
+    endoloc_eval::write_atomic(&path, csv.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
 }
