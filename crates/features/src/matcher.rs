@@ -132,28 +132,15 @@ impl Matcher {
         train: &[T],
     ) -> Result<Vec<Match>, FeatureError> {
         let cfg = &self.config;
-        if !(cfg.ratio > 0.0 && cfg.ratio <= 1.0) {
-            return Err(FeatureError::InvalidConfig {
-                field: "ratio",
-                reason: format!("is {}, expected a value in (0, 1]", cfg.ratio),
-            });
-        }
-        let Some(first) = query.first() else {
+        let Some(f) = Flat::new(cfg, query, train)? else {
             return Ok(Vec::new());
         };
-        let dim = first.descriptor().len();
-        check_lengths(query, dim, "query")?;
-        check_lengths(train, dim, "train")?;
-        let q_flat = flatten(query, dim);
-        let t_flat = flatten(train, dim);
-        let q_sign: Vec<i8> = query.iter().map(|q| q.laplacian()).collect();
-        let t_sign: Vec<i8> = train.iter().map(|t| t.laplacian()).collect();
         let (forward, backward) = nearest_both(
-            &q_flat,
-            &q_sign,
-            &t_flat,
-            &t_sign,
-            dim,
+            &f.q,
+            &f.q_sign,
+            &f.t,
+            &f.t_sign,
+            f.dim,
             cfg.laplacian_gating,
             cfg.parallel,
         );
@@ -172,40 +159,27 @@ impl Matcher {
         train: &[T],
     ) -> Result<Vec<Match>, FeatureError> {
         let cfg = &self.config;
-        if !(cfg.ratio > 0.0 && cfg.ratio <= 1.0) {
-            return Err(FeatureError::InvalidConfig {
-                field: "ratio",
-                reason: format!("is {}, expected a value in (0, 1]", cfg.ratio),
-            });
-        }
-        let Some(first) = query.first() else {
+        let Some(f) = Flat::new(cfg, query, train)? else {
             return Ok(Vec::new());
         };
-        let dim = first.descriptor().len();
-        check_lengths(query, dim, "query")?;
-        check_lengths(train, dim, "train")?;
-        let q_flat = flatten(query, dim);
-        let t_flat = flatten(train, dim);
-        let q_sign: Vec<i8> = query.iter().map(|q| q.laplacian()).collect();
-        let t_sign: Vec<i8> = train.iter().map(|t| t.laplacian()).collect();
         let gating = cfg.laplacian_gating;
 
         let forward = nearest_all(
-            &q_flat,
-            &q_sign,
-            &t_flat,
-            &t_sign,
-            dim,
+            &f.q,
+            &f.q_sign,
+            &f.t,
+            &f.t_sign,
+            f.dim,
             gating,
             cfg.parallel,
         );
         let backward = if cfg.mutual {
             Some(nearest_all(
-                &t_flat,
-                &t_sign,
-                &q_flat,
-                &q_sign,
-                dim,
+                &f.t,
+                &f.t_sign,
+                &f.q,
+                &f.q_sign,
+                f.dim,
                 gating,
                 cfg.parallel,
             ))
@@ -247,6 +221,45 @@ impl Matcher {
             });
         }
         out
+    }
+}
+
+/// Query and train descriptors as flat row-major arrays, with their Laplacian signs.
+struct Flat {
+    dim: usize,
+    q: Vec<f32>,
+    q_sign: Vec<i8>,
+    t: Vec<f32>,
+    t_sign: Vec<i8>,
+}
+
+impl Flat {
+    /// Checks the ratio and the descriptor lengths and flattens both sides; `None` for an
+    /// empty query.
+    fn new<Q: Describe, T: Describe>(
+        cfg: &MatcherConfig,
+        query: &[Q],
+        train: &[T],
+    ) -> Result<Option<Self>, FeatureError> {
+        if !(cfg.ratio > 0.0 && cfg.ratio <= 1.0) {
+            return Err(FeatureError::InvalidConfig {
+                field: "ratio",
+                reason: format!("is {}, expected a value in (0, 1]", cfg.ratio),
+            });
+        }
+        let Some(first) = query.first() else {
+            return Ok(None);
+        };
+        let dim = first.descriptor().len();
+        check_lengths(query, dim, "query")?;
+        check_lengths(train, dim, "train")?;
+        Ok(Some(Flat {
+            dim,
+            q: flatten(query, dim),
+            q_sign: query.iter().map(|q| q.laplacian()).collect(),
+            t: flatten(train, dim),
+            t_sign: train.iter().map(|t| t.laplacian()).collect(),
+        }))
     }
 }
 

@@ -110,6 +110,16 @@ impl BackboneConfig {
         }
     }
 
+    /// The same backbone at another input size.
+    pub fn with_input(mut self, size: InputSize) -> Self {
+        match &mut self {
+            BackboneConfig::Compact { input, .. } | BackboneConfig::GoogLeNet { input, .. } => {
+                *input = size;
+            }
+        }
+        self
+    }
+
     /// Network input size.
     pub fn input(&self) -> InputSize {
         match self {

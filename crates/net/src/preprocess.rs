@@ -32,6 +32,24 @@ impl std::fmt::Display for InputSize {
     }
 }
 
+impl std::str::FromStr for InputSize {
+    type Err = crate::NetError;
+
+    /// Parses `WIDTHxHEIGHT`, e.g. `160x120` (`×` is accepted too).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let bad = || {
+            crate::NetError::Config(format!(
+                "input size {s:?}: expected WIDTHxHEIGHT in pixels, e.g. 160x120"
+            ))
+        };
+        let (w, h) = s.trim().split_once(['x', 'X', '×']).ok_or_else(bad)?;
+        Ok(InputSize {
+            width: w.trim().parse().map_err(|_| bad())?,
+            height: h.trim().parse().map_err(|_| bad())?,
+        })
+    }
+}
+
 /// Weights of the area resampling of one axis: for each output index, `(first input index,
 /// weights)`; the weights sum to 1.
 fn area_weights(src: usize, dst: usize) -> Vec<(usize, Vec<f32>)> {
@@ -120,6 +138,20 @@ pub fn network_input(img: &image::GrayImage, size: InputSize) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn input_sizes_parse_or_name_the_expected_form() {
+        let s: InputSize = "160x120".parse().unwrap();
+        assert_eq!((s.width, s.height), (160, 120));
+        assert_eq!(
+            " 64 × 48 ".parse::<InputSize>().unwrap().to_string(),
+            "64x48"
+        );
+        for bad in ["160", "160x", "ax120", "-1x5", ""] {
+            let e = bad.parse::<InputSize>().unwrap_err().to_string();
+            assert!(e.contains("WIDTHxHEIGHT"), "{bad}: {e}");
+        }
+    }
 
     #[test]
     fn area_resize_averages_blocks_exactly() {

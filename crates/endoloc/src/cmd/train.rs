@@ -73,6 +73,10 @@ pub struct Args {
     #[arg(long, default_value = "compact")]
     backbone: String,
 
+    /// Network input size WIDTHxHEIGHT (default: the backbone's, 128x96 for compact).
+    #[arg(long, value_name = "WxH")]
+    input: Option<String>,
+
     /// Schedule preset: `fast` or `paper`.
     #[arg(long, default_value = "fast")]
     schedule: String,
@@ -157,6 +161,9 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
             ..TrainConfig::default()
         },
     };
+    if let Some(size) = &args.input {
+        cfg.backbone = cfg.backbone.clone().with_input(size.parse()?);
+    }
     if let Some(e) = args.epochs {
         cfg.schedule.epochs = e;
     }
