@@ -165,7 +165,7 @@ pub struct TrainConfig {
     /// Fraction of negative pairs drawn from nearby zones (default 0: zones drawn uniformly,
     /// as in the paper). Measured on the simulator's `paper` preset (50 zones, test pass):
     /// 0.5 gives 50.9 % exact / 65.8 % within ±1 zone per frame and 53.4 / 72.1 % with the
-    /// forward filter; 0 gives 53.7 / 73.4 % and 60.8 / 86.2 %. Pushing neighbouring zones
+    /// forward filter; 0 gives 53.4 / 74.0 % and 59.2 / 85.5 %. Pushing neighbouring zones
     /// apart teaches cues of the training pass that a second pass does not share.
     pub hard_negative_fraction: f32,
     /// "Nearby" for hard negatives: at most this many zones apart.
