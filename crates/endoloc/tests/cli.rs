@@ -131,6 +131,58 @@ fn every_method_and_experiment_writes_its_outputs() {
     ]);
     assert!(err.contains("--force"), "{err}");
 
+    // Zones with geometric verification against the maps: two more columns, two more
+    // summary lines (their accuracy is checked in the localize crate's pipeline test).
+    let text = ok(&[
+        "classify",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--verify",
+        "3",
+        "--out",
+        &r("zones.csv"),
+    ]);
+    assert!(text.contains("verified") && text.contains("live"), "{text}");
+    let zones = std::fs::read_to_string(st.root.join("zones.csv")).unwrap();
+    let header = zones.lines().next().unwrap();
+    assert!(
+        header.ends_with(",truth_zone,verified_zone,live_zone"),
+        "{header}"
+    );
+    assert_eq!(zones.lines().count(), 41, "header + one row per test frame");
+    assert!(
+        zones.lines().skip(1).all(|l| l
+            .split(',')
+            .rev()
+            .take(2)
+            .all(|z| z.parse::<usize>().is_ok_and(|z| z < 6))),
+        "{zones}"
+    );
+    // Without maps, --verify says what to run first.
+    let bare = st.root.join("model_without_map");
+    std::fs::create_dir(&bare).unwrap();
+    for f in [
+        "model.toml",
+        "weights.safetensors",
+        "zones.csv",
+        "database.bin",
+        "train_poses.txt",
+    ] {
+        std::fs::copy(st.root.join("model").join(f), bare.join(f)).unwrap();
+    }
+    let err = fails(&[
+        "classify",
+        "--model",
+        &s(&bare),
+        "--seq",
+        &r("data/test"),
+        "--verify",
+        "3",
+    ]);
+    assert!(err.contains("endoloc map"), "{err}");
+
     // Baselines through `localize --method`.
     for method in ["classify", "retrieval", "vo"] {
         let out = format!("run-{method}");

@@ -5,7 +5,9 @@
 //! - in live mode, tracking from the last refined pose keeps frames refined even when the
 //!   classifier points to a far-away zone, and without tracking they are not;
 //! - a textureless frame is `init_only` with the reason, not an error;
-//! - a frame with too few features at the test threshold registers with the retry features.
+//! - a frame with too few features at the test threshold registers with the retry features;
+//! - geometric verification (`endoloc classify --verify`): frames the classifier puts one
+//!   zone off get their true zone back from the zone of their registered pose.
 
 use burn::module::Module;
 use endoloc_data::Dataset;
@@ -242,6 +244,60 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
         "without tracking {untracked} frames refined in a wrong zone (tracking: {tracked})"
     );
     assert!(errs.iter().all(|&e| e < 20.0), "tracked errors {errs:?}");
+}
+
+/// A prediction with `zone` first and `second` next.
+fn predict_two(zone: usize, second: usize) -> ZonePrediction {
+    let mut p = predict(zone);
+    p.zone_scores[second] = 0.2;
+    p
+}
+
+#[test]
+fn verification_gives_wrongly_classified_frames_the_zone_of_their_registered_pose() {
+    let f = fixture();
+    let test = f.ds.sequence("test").unwrap();
+    let loc = localizer(
+        f,
+        LocalizerConfig {
+            candidate_zones: 2,
+            ..LocalizerConfig::default()
+        },
+    );
+    let clf = loc.classifier();
+    let (mut refined, mut verified_right, mut frames) = (0, 0, 0);
+    for i in (0..test.len()).step_by(6) {
+        let truth = clf.truth_zone(&test.poses[i].pose).unwrap();
+        // Every frame one zone off (towards the middle), its true zone second.
+        let wrong = if truth + 1 < ZONES {
+            truth + 1
+        } else {
+            truth - 1
+        };
+        let img = test.load_gray(i).unwrap();
+        let r = loc
+            .localize_with_prediction(&img, &predict_two(wrong, truth), wrong, 0.0)
+            .unwrap();
+        frames += 1;
+        let verified = match (r.status, r.t_wc) {
+            (Status::Refined, Some(p)) => {
+                refined += 1;
+                clf.truth_zone(&p).unwrap()
+            }
+            _ => wrong,
+        };
+        verified_right += usize::from(verified == truth);
+    }
+    // Measured (seed 3): 24 of 50 frames registered (feature-poor 320×240 frames), all 24 in
+    // their true zone; the classifier alone had none right.
+    assert!(
+        refined * 5 >= frames * 2,
+        "only {refined} of {frames} frames registered"
+    );
+    assert!(
+        verified_right * 100 >= refined * 95,
+        "{verified_right} of {refined} registered frames verified into their true zone"
+    );
 }
 
 #[test]

@@ -175,6 +175,7 @@ mod tests {
             },
             channels: vec![4, 8],
             descriptor_dim: 8,
+            stem_stride: 2,
         };
         device.seed(5);
         let a = cfg.init(&device);

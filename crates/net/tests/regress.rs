@@ -51,6 +51,7 @@ fn tiny_config(epochs: usize) -> RegressConfig {
             },
             channels: vec![8, 16],
             descriptor_dim: 16,
+            stem_stride: 2,
         },
         schedule: RegressSchedule {
             epochs,

@@ -64,6 +64,7 @@ fn tiny_config(epochs: usize) -> TrainConfig {
             },
             channels: vec![8, 16],
             descriptor_dim: 16,
+            stem_stride: 2,
         },
         schedule: Schedule {
             epochs,

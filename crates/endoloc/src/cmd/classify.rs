@@ -6,8 +6,13 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use endoloc_data::{Dataset, Sequence};
+use endoloc_geometry::Status;
+use endoloc_localize::map_io::load_map;
+use endoloc_localize::{FrameResult, Localizer, LocalizerConfig};
 use endoloc_net::{TemporalFilter, ZoneClassifier, ZonePrediction, viterbi};
 use rayon::prelude::*;
+
+use crate::cmd::localize::test_frame_surf;
 
 /// Classify every frame of a sequence into the model's zones and compare with the truth.
 ///
@@ -17,15 +22,24 @@ use rayon::prelude::*;
 /// offline best path. The truth zone of a frame is the zone of the nearest training pose
 /// (position, with 10° of orientation counting as 1 mm).
 ///
+/// With --verify K (and the model's maps, from `endoloc map`), each frame is also checked
+/// geometrically: its SURF features are registered in its K best zones, best first, and the
+/// frame goes to the zone of the first registered pose (`verified`, per frame); the live
+/// localizer does the same with the forward filter and tracking (`live`). A frame that
+/// registers nowhere keeps its raw (or forward) zone.
+///
 /// Output: a CSV with one row per frame (frame, raw zone, its distance, nearest training
-/// frame, forward-filtered zone, Viterbi zone, truth) to --out or stdout, all zone scores with
-/// --scores, and a summary of accuracies and timing on stderr.
+/// frame, forward-filtered zone, Viterbi zone, truth; then verified and live zones with
+/// --verify) to --out or stdout, all zone scores with --scores, and a summary of accuracies
+/// and timing on stderr.
 ///
 /// Examples:
 ///
 ///   endoloc classify --model models/paper50 --seq data/paper/test --out zones.csv
 ///
 ///   endoloc classify --model models/paper50 --seq data/paper/test --filter viterbi > zones.csv
+///
+///   endoloc classify --model models/paper50 --seq data/paper/test --verify 5 --out zones.csv
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -62,9 +76,84 @@ pub struct Args {
     #[arg(long)]
     temperature: Option<f32>,
 
+    /// Verify every frame against the model's SURF maps in its K best zones (0 = off; needs
+    /// `endoloc map` first). Adds the verified (per frame) and live zones.
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    verify: usize,
+
     /// Compute device: cpu, cuda, wgpu (GPU builds only) or auto.
     #[arg(long, default_value = "cpu")]
     device: String,
+}
+
+/// The classifier alone, or inside a localizer for --verify.
+enum Classifier {
+    Plain(ZoneClassifier),
+    Verifying(Box<Localizer>),
+}
+
+impl Classifier {
+    fn get(&self) -> &ZoneClassifier {
+        match self {
+            Classifier::Plain(c) => c,
+            Classifier::Verifying(l) => l.classifier(),
+        }
+    }
+}
+
+/// Zones from geometric verification: per frame and live.
+struct Verified {
+    per_frame: Vec<usize>,
+    live: Vec<usize>,
+    seconds: f64,
+}
+
+/// The zone of a registered pose (the zone of the nearest training pose), else `fallback`.
+fn zone_of(clf: &ZoneClassifier, r: &FrameResult, fallback: usize) -> usize {
+    match (r.status, &r.t_wc) {
+        (Status::Refined, Some(p)) => clf.truth_zone(p).unwrap_or(fallback),
+        _ => fallback,
+    }
+}
+
+/// Registers every frame in its best zones (in parallel), then runs the live localizer over
+/// the sequence in order.
+fn verify(
+    localizer: &Localizer,
+    seq: &Sequence,
+    preds: &[ZonePrediction],
+    forward: &[usize],
+) -> Result<Verified> {
+    let clf = localizer.classifier();
+    let n = preds.len();
+    let t0 = Instant::now();
+    let bar = crate::ui::progress_bar(n as u64, "verifying");
+    let per_frame: Result<Vec<usize>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let img = seq.load_gray(i)?;
+            let r = localizer.localize_with_prediction(&img, &preds[i], preds[i].zone, 0.0)?;
+            bar.inc(1);
+            Ok(zone_of(clf, &r, preds[i].zone))
+        })
+        .collect();
+    let per_frame = per_frame?;
+    bar.finish_and_clear();
+    let bar = crate::ui::progress_bar(n as u64, "live");
+    let mut state = localizer.live_state();
+    let mut live = Vec::with_capacity(n);
+    for (i, &fwd) in forward.iter().enumerate() {
+        let img = seq.load_gray(i)?;
+        let r = localizer.localize_live(&mut state, &img)?;
+        live.push(zone_of(clf, &r, fwd));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok(Verified {
+        per_frame,
+        live,
+        seconds: t0.elapsed().as_secs_f64(),
+    })
 }
 
 /// Accuracy counters.
@@ -101,7 +190,18 @@ pub fn run(args: Args) -> Result<()> {
             args.filter
         );
     }
-    let clf = ZoneClassifier::load_on(&args.model, &args.device)?;
+    let loaded = ZoneClassifier::load_on(&args.model, &args.device)?;
+    let source = if args.verify > 0 {
+        let map = load_map(&args.model)?;
+        let cfg = LocalizerConfig {
+            candidate_zones: args.verify,
+            ..test_frame_surf(&map.config.surf, None, None)
+        };
+        Classifier::Verifying(Box::new(Localizer::new(loaded, map, cfg)?))
+    } else {
+        Classifier::Plain(loaded)
+    };
+    let clf = source.get();
     let seq = Sequence::open(&args.seq)?;
     // The dataset's camera, when the sequence sits in a dataset folder.
     if let Some(parent) = args.seq.parent()
@@ -141,10 +241,21 @@ pub fn run(args: Args) -> Result<()> {
         clf.zones().truth_zones(clf.train_poses(), &poses)
     };
 
+    let verified = match &source {
+        Classifier::Verifying(l) => Some(verify(l, &seq, &preds, &forward)?),
+        Classifier::Plain(_) => None,
+    };
+
     let mut csv = String::from(
-        "frame,zone,raw_zone,distance,nearest_train_frame,forward_zone,viterbi_zone,truth_zone\n",
+        "frame,zone,raw_zone,distance,nearest_train_frame,forward_zone,viterbi_zone,truth_zone",
     );
+    csv.push_str(if verified.is_some() {
+        ",verified_zone,live_zone\n"
+    } else {
+        "\n"
+    });
     let (mut raw_acc, mut fwd_acc, mut vit_acc) = (Acc::default(), Acc::default(), Acc::default());
+    let (mut ver_acc, mut live_acc) = (Acc::default(), Acc::default());
     for i in 0..n {
         let chosen = match filter.as_str() {
             "forward" => forward[i],
@@ -152,7 +263,7 @@ pub fn run(args: Args) -> Result<()> {
             _ => preds[i].zone,
         };
         let t = truth[i];
-        let _ = writeln!(
+        let _ = write!(
             csv,
             "{i},{chosen},{},{:.5},{},{},{},{}",
             preds[i].zone,
@@ -162,10 +273,18 @@ pub fn run(args: Args) -> Result<()> {
             viterbi_zone(&offline, i),
             t.map_or(String::new(), |t| t.to_string())
         );
+        if let Some(v) = &verified {
+            let _ = write!(csv, ",{},{}", v.per_frame[i], v.live[i]);
+        }
+        csv.push('\n');
         if let Some(t) = t {
             raw_acc.add(preds[i].zone, t);
             fwd_acc.add(forward[i], t);
             vit_acc.add(viterbi_zone(&offline, i), t);
+            if let Some(v) = &verified {
+                ver_acc.add(v.per_frame[i], t);
+                live_acc.add(v.live[i], t);
+            }
         }
     }
     match &args.out {
@@ -198,6 +317,10 @@ pub fn run(args: Args) -> Result<()> {
         eprintln!("{}", raw_acc.line("raw"));
         eprintln!("{}", fwd_acc.line("forward"));
         eprintln!("{}", vit_acc.line("viterbi"));
+        if verified.is_some() {
+            eprintln!("{}", ver_acc.line("verified"));
+            eprintln!("{}", live_acc.line("live"));
+        }
     }
     eprintln!(
         "time {:.1} s: {:.2} ms per frame (decode + descriptor + look-up, batches of 64, {} threads)",
@@ -205,6 +328,13 @@ pub fn run(args: Args) -> Result<()> {
         1000.0 * classify_s / n.max(1) as f64,
         rayon::current_num_threads()
     );
+    if let Some(v) = &verified {
+        eprintln!(
+            "verification {:.1} s: {:.1} ms per frame (per frame in parallel, then live in order)",
+            v.seconds,
+            1000.0 * v.seconds / n.max(1) as f64
+        );
+    }
     Ok(())
 }
 

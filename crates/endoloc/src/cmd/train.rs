@@ -68,14 +68,19 @@ pub struct Args {
     #[arg(long)]
     resume: bool,
 
-    /// Backbone: `compact` (CPU default, 128x96 input) or `googlenet` (the paper's,
+    /// Backbone: `compact` (CPU default, 256x192 input, stride-4 first layer) or `googlenet` (the paper's,
     /// 224x224x1; for a GPU).
     #[arg(long, default_value = "compact")]
     backbone: String,
 
-    /// Network input size WIDTHxHEIGHT (default: the backbone's, 128x96 for compact).
+    /// Network input size WIDTHxHEIGHT (default: the backbone's, 256x192 for compact).
     #[arg(long, value_name = "WxH")]
     input: Option<String>,
+
+    /// Stride of the compact backbone's first convolution (default 4; 2 with `--input 128x96`
+    /// is the former, coarser default).
+    #[arg(long, value_name = "N")]
+    stem_stride: Option<usize>,
 
     /// Schedule preset: `fast` or `paper`.
     #[arg(long, default_value = "fast")]
@@ -163,6 +168,15 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
     };
     if let Some(size) = &args.input {
         cfg.backbone = cfg.backbone.clone().with_input(size.parse()?);
+    }
+    if let Some(n) = args.stem_stride {
+        match &mut cfg.backbone {
+            BackboneConfig::Compact { stem_stride, .. } => *stem_stride = n,
+            other => anyhow::bail!(
+                "--stem-stride applies to the compact backbone, not {}",
+                other.name()
+            ),
+        }
     }
     if let Some(e) = args.epochs {
         cfg.schedule.epochs = e;

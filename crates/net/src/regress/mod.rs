@@ -185,7 +185,7 @@ pub struct RegressConfig {
 impl Default for RegressConfig {
     fn default() -> Self {
         RegressConfig {
-            backbone: BackboneConfig::default(),
+            backbone: BackboneConfig::compact_low_res(),
             schedule: RegressSchedule::fast(),
             beta: 1.0,
             hidden: 256,
