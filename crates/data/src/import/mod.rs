@@ -446,9 +446,15 @@ pub fn write_import(
     let mut written = Vec::new();
     for (name, s) in sequences {
         let seq = writer.sequence(name)?;
-        s.frames.par_iter().enumerate().try_for_each(|(i, f)| {
-            write_frame(&seq, i, f, &source_camera, s.depth_encoding, map.as_ref())
-        })?;
+        // Frames are written in parallel; the error reported is the first frame's in order,
+        // so the same bad input always names the same file.
+        let results: Vec<Result<(), DataError>> = s
+            .frames
+            .par_iter()
+            .enumerate()
+            .map(|(i, f)| write_frame(&seq, i, f, &source_camera, s.depth_encoding, map.as_ref()))
+            .collect();
+        results.into_iter().collect::<Result<(), DataError>>()?;
         let has_depth = s.depth_encoding.is_some() && s.frames.iter().all(|f| f.depth.is_some());
         seq.finish(&s.poses(), None)?;
         written.push((name.clone(), s.frames.len(), has_depth));
