@@ -88,7 +88,7 @@ pub struct Args {
 
 /// The classifier alone, or inside a localizer for --verify.
 enum Classifier {
-    Plain(ZoneClassifier),
+    Plain(Box<ZoneClassifier>),
     Verifying(Box<Localizer>),
 }
 
@@ -199,7 +199,7 @@ pub fn run(args: Args) -> Result<()> {
         };
         Classifier::Verifying(Box::new(Localizer::new(loaded, map, cfg)?))
     } else {
-        Classifier::Plain(loaded)
+        Classifier::Plain(Box::new(loaded))
     };
     let clf = source.get();
     let seq = Sequence::open(&args.seq)?;
