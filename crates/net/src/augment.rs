@@ -1,11 +1,15 @@
 //! Training-time augmentation of the resized grey images (values in `[0, 1]`, before
-//! standardisation): small rotation (roll of the scope), brightness and contrast with
-//! saturation, gamma, Gaussian blur (defocus, motion), specular highlights and sensor noise.
+//! standardisation): the view of a scope turned about its own centre (roll about the optical
+//! axis, tilt of the gaze: an exact homography whatever the depths, see
+//! [`crate::regress::view`]), zoom and shift, brightness and contrast with saturation, gamma,
+//! Gaussian blur (defocus, motion), specular highlights and sensor noise.
 //!
 //! Every draw comes from the caller's seeded RNG, so a run is reproducible. Note that a pure
 //! gain or offset is removed by the per-image standardisation ([`crate::preprocess`]): what
 //! brightness and contrast change for the network is where pixels saturate, and gamma.
 
+use crate::regress::view::{ViewIntrinsics, view_turn};
+use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
@@ -18,6 +22,11 @@ pub struct AugmentConfig {
     pub enabled: bool,
     /// Rotation about the image centre, uniform in `±rotation_deg` degrees (the scope's roll).
     pub rotation_deg: f32,
+    /// Tilt of the gaze: the camera turned about its x and y axes, each uniform in
+    /// `±tilt_deg` degrees, rendered exactly by the homography `K ΔR K⁻¹` (0 disables it).
+    /// A second pass through the colon looks along other directions at the same place; a
+    /// shift of the image only approximates that near the image centre.
+    pub tilt_deg: f32,
     /// Zoom uniform in `1 ± scale` (distance to the wall).
     pub scale: f32,
     /// Shift uniform in `±translate` of the image size, each axis (lateral offset, gaze).
@@ -45,6 +54,7 @@ impl Default for AugmentConfig {
         AugmentConfig {
             enabled: true,
             rotation_deg: 45.0,
+            tilt_deg: 0.0,
             scale: 0.15,
             translate: 0.08,
             brightness: 0.3,
@@ -70,24 +80,41 @@ impl AugmentConfig {
 }
 
 /// Returns an augmented copy of `px` (`w × h`, row-major, values in `[0, 1]`).
+///
+/// `view` is the pinhole model of the image at this size ([`ViewIntrinsics::resized`]); the
+/// tilt needs it, and without it assumes a centred principal point and a 90° horizontal field
+/// of view (`f = w / 2`).
 pub fn augment<R: Rng>(
     px: &[f32],
     w: usize,
     h: usize,
+    view: Option<&ViewIntrinsics>,
     cfg: &AugmentConfig,
     rng: &mut R,
 ) -> Vec<f32> {
     if !cfg.enabled || w == 0 || h == 0 {
         return px.to_vec();
     }
-    let mut out = if cfg.rotation_deg > 0.0 || cfg.scale > 0.0 || cfg.translate > 0.0 {
+    let geometric =
+        cfg.rotation_deg > 0.0 || cfg.scale > 0.0 || cfg.translate > 0.0 || cfg.tilt_deg > 0.0;
+    let mut out = if geometric {
         let a = rng
             .random_range(-cfg.rotation_deg..=cfg.rotation_deg)
             .to_radians();
         let s = 1.0 + rng.random_range(-cfg.scale..=cfg.scale);
         let tx = rng.random_range(-cfg.translate..=cfg.translate) * w as f32;
         let ty = rng.random_range(-cfg.translate..=cfg.translate) * h as f32;
-        warp(px, w, h, a, s, tx, ty)
+        let turn = if cfg.tilt_deg > 0.0 {
+            let pitch = rng.random_range(-cfg.tilt_deg..=cfg.tilt_deg).to_radians();
+            let yaw = rng.random_range(-cfg.tilt_deg..=cfg.tilt_deg).to_radians();
+            let k = view
+                .copied()
+                .unwrap_or_else(|| ViewIntrinsics::centred(w, h, w as f64 / 2.0));
+            Some(turn_homography(&k, pitch as f64, yaw as f64))
+        } else {
+            None
+        };
+        warp(px, w, h, a, s, tx, ty, turn.as_ref())
     } else {
         px.to_vec()
     };
@@ -131,12 +158,42 @@ pub fn augment<R: Rng>(
 /// Bilinear rotation by `angle` radians about the image centre, borders replicated.
 #[cfg(test)]
 fn rotate(px: &[f32], w: usize, h: usize, angle: f32) -> Vec<f32> {
-    warp(px, w, h, angle, 1.0, 0.0, 0.0)
+    warp(px, w, h, angle, 1.0, 0.0, 0.0, None)
 }
 
-/// Bilinear similarity warp: rotation by `angle` radians and zoom by `scale` about the image
-/// centre, then a shift by `(tx, ty)` pixels; borders replicated.
-fn warp(px: &[f32], w: usize, h: usize, angle: f32, scale: f32, tx: f32, ty: f32) -> Vec<f32> {
+/// The homography `K ΔR K⁻¹` that maps a pixel of the camera turned by `ΔR` (tilt `pitch`
+/// about x, then `yaw` about y, radians) to where the original camera saw the same ray.
+fn turn_homography(k: &ViewIntrinsics, pitch: f64, yaw: f64) -> Matrix3<f32> {
+    let kk = Matrix3::new(k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0);
+    let k_inv = Matrix3::new(
+        1.0 / k.fx,
+        0.0,
+        -k.cx / k.fx,
+        0.0,
+        1.0 / k.fy,
+        -k.cy / k.fy,
+        0.0,
+        0.0,
+        1.0,
+    );
+    let r = view_turn(0.0, pitch, yaw).to_rotation_matrix();
+    (kk * r.matrix() * k_inv).cast::<f32>()
+}
+
+/// Bilinear warp, borders replicated: an output pixel is first taken back through the
+/// similarity (shift by `(tx, ty)` pixels, zoom by `scale` and rotation by `angle` radians
+/// about the image centre), then through the turned camera's homography `turn` when given.
+#[allow(clippy::too_many_arguments)]
+fn warp(
+    px: &[f32],
+    w: usize,
+    h: usize,
+    angle: f32,
+    scale: f32,
+    tx: f32,
+    ty: f32,
+    turn: Option<&Matrix3<f32>>,
+) -> Vec<f32> {
     let (s, c) = angle.sin_cos();
     let inv = 1.0 / scale.max(1e-3);
     let (cx, cy) = ((w as f32 - 1.0) / 2.0, (h as f32 - 1.0) / 2.0);
@@ -144,8 +201,15 @@ fn warp(px: &[f32], w: usize, h: usize, angle: f32, scale: f32, tx: f32, ty: f32
     for y in 0..h {
         for x in 0..w {
             let (dx, dy) = ((x as f32 - cx - tx) * inv, (y as f32 - cy - ty) * inv);
-            let sx = (c * dx + s * dy + cx).clamp(0.0, (w - 1) as f32);
-            let sy = (-s * dx + c * dy + cy).clamp(0.0, (h - 1) as f32);
+            let (mut sx, mut sy) = (c * dx + s * dy + cx, -s * dx + c * dy + cy);
+            if let Some(m) = turn {
+                let p = m * Vector3::new(sx, sy, 1.0);
+                if p.z > 1e-6 {
+                    (sx, sy) = (p.x / p.z, p.y / p.z);
+                }
+            }
+            let sx = sx.clamp(0.0, (w - 1) as f32);
+            let sy = sy.clamp(0.0, (h - 1) as f32);
             let (x0, y0) = (sx.floor() as usize, sy.floor() as usize);
             let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
             let (fx, fy) = (sx - x0 as f32, sy - y0 as f32);
@@ -218,9 +282,9 @@ mod tests {
             specular_probability: 1.0,
             ..AugmentConfig::default()
         };
-        let a = augment(&px, w, h, &cfg, &mut ChaCha8Rng::seed_from_u64(3));
-        let b = augment(&px, w, h, &cfg, &mut ChaCha8Rng::seed_from_u64(3));
-        let c = augment(&px, w, h, &cfg, &mut ChaCha8Rng::seed_from_u64(4));
+        let a = augment(&px, w, h, None, &cfg, &mut ChaCha8Rng::seed_from_u64(3));
+        let b = augment(&px, w, h, None, &cfg, &mut ChaCha8Rng::seed_from_u64(3));
+        let c = augment(&px, w, h, None, &cfg, &mut ChaCha8Rng::seed_from_u64(4));
         assert_eq!(a, b);
         assert_ne!(a, c);
         assert_ne!(a, px);
@@ -229,6 +293,7 @@ mod tests {
             &px,
             w,
             h,
+            None,
             &AugmentConfig::off(),
             &mut ChaCha8Rng::seed_from_u64(3),
         );
@@ -244,5 +309,68 @@ mod tests {
         for (i, v) in r.iter().enumerate() {
             assert!((v - px[14 - i]).abs() < 1e-4, "{r:?}");
         }
+    }
+
+    #[test]
+    fn tilt_is_the_exact_view_of_the_turned_camera() {
+        use crate::regress::view::rotate_view;
+        let (w, h) = (40usize, 30usize);
+        let px: Vec<f32> = (0..w * h)
+            .map(|i| ((i * 37 % 101) as f32 / 100.0).sin().abs())
+            .collect();
+        let k = ViewIntrinsics {
+            fx: 22.0,
+            fy: 21.0,
+            cx: 19.5,
+            cy: 14.5,
+        };
+        let (pitch, yaw) = (0.12f64, -0.2f64);
+        let ours = warp(
+            &px,
+            w,
+            h,
+            0.0,
+            1.0,
+            0.0,
+            0.0,
+            Some(&turn_homography(&k, pitch, yaw)),
+        );
+        let reference = rotate_view(
+            &px,
+            w,
+            h,
+            &k,
+            &view_turn(0.0, pitch, yaw).to_rotation_matrix(),
+        );
+        for (a, b) in ours.iter().zip(&reference) {
+            assert!((a - b).abs() < 1e-3, "{a} vs {b}");
+        }
+        // The centre ray of the turned camera (yaw only) is seen fx·tan(yaw) to the side.
+        let m = turn_homography(&k, 0.0, yaw);
+        let p = m * Vector3::new(k.cx as f32, k.cy as f32, 1.0);
+        let x = p.x / p.z;
+        assert!((x - (k.cx + k.fx * yaw.tan()) as f32).abs() < 1e-3, "{x}");
+        // Tilt draws are seeded like the rest.
+        let cfg = AugmentConfig {
+            tilt_deg: 15.0,
+            ..AugmentConfig::off()
+        };
+        let cfg = AugmentConfig {
+            enabled: true,
+            rotation_deg: 0.0,
+            scale: 0.0,
+            translate: 0.0,
+            brightness: 0.0,
+            contrast: 0.0,
+            gamma: 1.0,
+            blur_probability: 0.0,
+            specular_probability: 0.0,
+            noise_sigma: 0.0,
+            ..cfg
+        };
+        let a = augment(&px, w, h, Some(&k), &cfg, &mut ChaCha8Rng::seed_from_u64(5));
+        let b = augment(&px, w, h, Some(&k), &cfg, &mut ChaCha8Rng::seed_from_u64(5));
+        assert_eq!(a, b);
+        assert_ne!(a, px);
     }
 }

@@ -47,6 +47,10 @@ pub enum BackboneConfig {
         /// side at about the same cost after the first layer.
         #[serde(default = "default_stem_stride")]
         stem_stride: usize,
+        /// Global pooling of the last feature map (default `average`; older model.toml
+        /// files without the field load as average).
+        #[serde(default)]
+        pooling: Pooling,
     },
     /// GoogLeNet / PoseNet trunk, as in the paper.
     #[serde(rename = "googlenet")]
@@ -61,6 +65,30 @@ pub enum BackboneConfig {
         /// Dropout before the head (GoogLeNet: 0.4).
         dropout: f64,
     },
+}
+
+/// Global pooling of the compact backbone's last feature map.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Pooling {
+    /// Mean over positions: every part of the view counts alike.
+    #[default]
+    Average,
+    /// Generalised mean with `p = 3` (Radenović et al., "Fine-tuning CNN image retrieval
+    /// with no human annotation", TPAMI 2019): `(mean xᵖ)^(1/p)`, between the average
+    /// (`p = 1`) and the maximum (`p → ∞`), so a few distinctive activations (a vessel
+    /// pattern, a fold) weigh more than the bland wall around them.
+    Gem,
+}
+
+impl Pooling {
+    /// Exponent of the generalised mean (1 = average).
+    pub fn exponent(self) -> f32 {
+        match self {
+            Pooling::Average => 1.0,
+            Pooling::Gem => 3.0,
+        }
+    }
 }
 
 fn default_stem_stride() -> usize {
@@ -85,6 +113,7 @@ impl BackboneConfig {
             channels: vec![32, 64, 128, 128],
             descriptor_dim: 128,
             stem_stride: 4,
+            pooling: Pooling::Average,
         }
     }
 
@@ -100,6 +129,7 @@ impl BackboneConfig {
             channels: vec![32, 64, 128, 128],
             descriptor_dim: 128,
             stem_stride: 2,
+            pooling: Pooling::Average,
         }
     }
 
@@ -226,11 +256,13 @@ impl BackboneConfig {
                 channels,
                 descriptor_dim,
                 stem_stride,
+                pooling,
                 ..
             } => EmbeddingNet::Compact(CompactNet::new(
                 channels,
                 *descriptor_dim,
                 *stem_stride,
+                *pooling,
                 device,
             )),
             BackboneConfig::GoogLeNet {
@@ -290,12 +322,20 @@ pub struct CompactNet {
     pub blocks: Vec<BasicConv2d>,
     /// Global average pooling.
     pub pool: AdaptiveAvgPool2d,
+    /// Exponent of the generalised-mean pooling ([`Pooling::exponent`]; 1 = average).
+    pub pool_exponent: f32,
     /// Descriptor head.
     pub head: Linear,
 }
 
 impl CompactNet {
-    fn new(channels: &[usize], descriptor_dim: usize, stem_stride: usize, device: &Device) -> Self {
+    fn new(
+        channels: &[usize],
+        descriptor_dim: usize,
+        stem_stride: usize,
+        pooling: Pooling,
+        device: &Device,
+    ) -> Self {
         let mut blocks = Vec::with_capacity(channels.len());
         let mut c_in = 1;
         for (i, &c) in channels.iter().enumerate() {
@@ -306,6 +346,7 @@ impl CompactNet {
         CompactNet {
             blocks,
             pool: AdaptiveAvgPool2dConfig::new([1, 1]).init(),
+            pool_exponent: pooling.exponent(),
             head: LinearConfig::new(c_in, descriptor_dim).init(device),
         }
     }
@@ -316,8 +357,21 @@ impl CompactNet {
         for b in &self.blocks {
             x = b.forward(x);
         }
-        let x = self.pool.forward(x).flatten::<2>(1, 3);
+        let x = self.global_pool(x).flatten::<2>(1, 3);
         l2_normalize(self.head.forward(x))
+    }
+
+    /// Global pooling, `[b, c, h, w]` → `[b, c, 1, 1]`: the mean, or the generalised mean
+    /// `(mean xᵖ)^(1/p)` of the (non-negative, post-ReLU) features.
+    pub fn global_pool(&self, x: Tensor<4>) -> Tensor<4> {
+        let p = self.pool_exponent;
+        if p == 1.0 {
+            return self.pool.forward(x);
+        }
+        // The floor keeps x^(1/p) and its gradient finite where a channel is all zeros.
+        self.pool
+            .forward(x.clamp_min(1e-6).powf_scalar(p))
+            .powf_scalar(1.0 / p)
     }
 }
 
@@ -493,22 +547,26 @@ mod tests {
     fn both_backbones_give_unit_descriptors_of_the_configured_size() {
         let device = crate::device::cpu();
         device.seed(1);
-        let cfg = BackboneConfig::Compact {
-            input: InputSize {
-                width: 32,
-                height: 24,
-            },
-            channels: vec![4, 8],
-            descriptor_dim: 16,
-            stem_stride: 2,
-        };
-        let net = cfg.init(&device);
-        let x = Tensor::<4>::random([3, 1, 24, 32], burn::tensor::Distribution::Default, &device);
-        let y = net.forward(x);
-        assert_eq!(y.dims(), [3, 16]);
-        let norms = y.square().sum_dim(1).into_data();
-        for n in norms.as_slice::<f32>().unwrap() {
-            assert!((n - 1.0).abs() < 1e-4, "{n}");
+        for pooling in [Pooling::Average, Pooling::Gem] {
+            let cfg = BackboneConfig::Compact {
+                input: InputSize {
+                    width: 32,
+                    height: 24,
+                },
+                channels: vec![4, 8],
+                descriptor_dim: 16,
+                stem_stride: 2,
+                pooling,
+            };
+            let net = cfg.init(&device);
+            let x =
+                Tensor::<4>::random([3, 1, 24, 32], burn::tensor::Distribution::Default, &device);
+            let y = net.forward(x);
+            assert_eq!(y.dims(), [3, 16]);
+            let norms = y.square().sum_dim(1).into_data();
+            for n in norms.as_slice::<f32>().unwrap() {
+                assert!((n - 1.0).abs() < 1e-4, "{pooling:?}: {n}");
+            }
         }
         // GoogLeNet at a small input (the trunk reduces by 32): shape check only.
         let g = BackboneConfig::GoogLeNet {
@@ -539,6 +597,7 @@ mod tests {
                 channels: vec![4, 8],
                 descriptor_dim: 8,
                 stem_stride: stride,
+                pooling: Pooling::Average,
             };
             cfg.validate().unwrap();
             let EmbeddingNet::Compact(net) = cfg.init(&device) else {
@@ -564,6 +623,7 @@ mod tests {
             channels: vec![4],
             descriptor_dim: 8,
             stem_stride: 0,
+            pooling: Pooling::Average,
         };
         assert!(
             bad.validate()
@@ -571,5 +631,50 @@ mod tests {
                 .to_string()
                 .contains("stem_stride")
         );
+    }
+
+    #[test]
+    fn gem_pooling_is_the_cube_root_of_the_mean_cube_and_average_the_mean() {
+        let device = crate::device::cpu();
+        let x = Tensor::<4>::from_floats([[[[0.0f32, 1.0], [2.0, 3.0]]]], &device);
+        let net = |pooling| {
+            let cfg = BackboneConfig::Compact {
+                input: InputSize {
+                    width: 16,
+                    height: 16,
+                },
+                channels: vec![1],
+                descriptor_dim: 2,
+                stem_stride: 1,
+                pooling,
+            };
+            match cfg.init(&device) {
+                EmbeddingNet::Compact(n) => n,
+                EmbeddingNet::GoogLeNet(_) => panic!("compact config built another network"),
+            }
+        };
+        let pooled = |p| {
+            net(p)
+                .global_pool(x.clone())
+                .into_data()
+                .as_slice::<f32>()
+                .unwrap()[0]
+        };
+        // (0 + 1 + 8 + 27) / 4 = 9 → 9^(1/3) = 2.0801; the mean is 1.5.
+        assert!((pooled(Pooling::Gem) - 9f32.cbrt()).abs() < 1e-4);
+        assert!((pooled(Pooling::Average) - 1.5).abs() < 1e-6);
+        // Model files name the pooling; files without it read as average.
+        let toml_text = toml::to_string(&BackboneConfig::Compact {
+            input: InputSize {
+                width: 16,
+                height: 16,
+            },
+            channels: vec![1],
+            descriptor_dim: 2,
+            stem_stride: 1,
+            pooling: Pooling::Gem,
+        })
+        .unwrap();
+        assert!(toml_text.contains("pooling = \"gem\""), "{toml_text}");
     }
 }

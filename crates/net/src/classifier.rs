@@ -272,6 +272,33 @@ impl ZoneClassifier {
         Ok(out)
     }
 
+    /// Descriptors of network inputs already prepared at the model's input size (resized,
+    /// standardised, e.g. by [`crate::preprocess::network_input`] and then warped), in batches.
+    ///
+    /// # Errors
+    /// [`NetError::Incompatible`] for an input of another length than the model's input.
+    pub fn describe_inputs(&self, inputs: &[Vec<f32>]) -> Result<Vec<Vec<f32>>, NetError> {
+        let size = self.config.backbone.input();
+        if let Some(bad) = inputs.iter().find(|v| v.len() != size.pixels()) {
+            return Err(NetError::Incompatible {
+                model: self.dir.clone(),
+                message: format!(
+                    "network input of {} values; the model takes {size} = {} values",
+                    bad.len(),
+                    size.pixels()
+                ),
+            });
+        }
+        let dim = self.config.backbone.descriptor_dim();
+        let mut out = Vec::with_capacity(inputs.len());
+        for chunk in inputs.chunks(self.batch) {
+            let buf: Vec<f32> = chunk.iter().flatten().copied().collect();
+            let v = crate::train::forward_values(&self.net, &self.device, buf, chunk.len(), size);
+            out.extend(v.chunks_exact(dim).map(<[f32]>::to_vec));
+        }
+        Ok(out)
+    }
+
     /// The zone of a descriptor (the model's score rule).
     ///
     /// # Errors

@@ -176,6 +176,7 @@ mod tests {
             channels: vec![4, 8],
             descriptor_dim: 8,
             stem_stride: 2,
+            pooling: Default::default(),
         };
         device.seed(5);
         let a = cfg.init(&device);

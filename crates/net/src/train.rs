@@ -18,6 +18,7 @@ use crate::loss::{DEFAULT_MARGIN, contrastive_loss};
 use crate::model::{self, ModelConfig};
 use crate::pairs::{PairBatch, PairSampler};
 use crate::preprocess::{InputSize, resize_area, standardize};
+use crate::regress::view::ViewIntrinsics;
 use crate::temporal::TemporalConfig;
 use crate::zones::ZoneTable;
 use burn::module::Module;
@@ -187,6 +188,12 @@ pub struct TrainConfig {
     /// Start from these weights (safetensors or a PyTorch state dict, [`crate::pretrained`])
     /// instead of a random initialisation.
     pub pretrained: Option<PathBuf>,
+    /// Further passes through the same colon (sequence folders with poses in the training
+    /// sequence's world frame, same camera). Each of their frames joins the zone of its
+    /// nearest training pose ([`ZoneTable::truth_zone`]), so that positive pairs also join
+    /// views of one place from different passes — the variation a test pass brings. Zones,
+    /// the descriptor database and maps stay those of the training sequence.
+    pub extra_sequences: Vec<PathBuf>,
 }
 
 impl Default for TrainConfig {
@@ -205,6 +212,7 @@ impl Default for TrainConfig {
             inference_batch: 64,
             device: "cpu".into(),
             pretrained: None,
+            extra_sequences: Vec::new(),
         }
     }
 }
@@ -295,6 +303,9 @@ pub struct TrainReport {
     pub history: Vec<EpochRecord>,
     /// Epoch the run resumed after (`None`: a fresh start).
     pub resumed_after_epoch: Option<usize>,
+    /// Frames of each extra pass that joined the training images
+    /// ([`TrainConfig::extra_sequences`], in order).
+    pub pass_frames: Vec<usize>,
     /// Wall-clock seconds: loading images.
     pub load_s: f64,
     /// Wall-clock seconds: optimisation steps and validation (this run).
@@ -312,6 +323,8 @@ pub struct ImageCache {
     pub size: InputSize,
     /// `count × width × height` values, row-major images one after the other.
     pub pixels: Vec<f32>,
+    /// Pinhole model of the images at this size (for view augmentation), when known.
+    pub view: Option<ViewIntrinsics>,
 }
 
 impl ImageCache {
@@ -351,7 +364,11 @@ impl ImageCache {
         for im in images {
             pixels.extend(im);
         }
-        ImageCache { size, pixels }
+        ImageCache {
+            size,
+            pixels,
+            view: None,
+        }
     }
 
     /// Number of images.
@@ -648,7 +665,14 @@ pub fn fit(
                 .zip(seeds.par_iter())
                 .flat_map_iter(|(&f, &s)| {
                     let mut r = ChaCha8Rng::seed_from_u64(s);
-                    let mut v = augment(cache.image(f), w, h, &cfg.augment, &mut r);
+                    let mut v = augment(
+                        cache.image(f),
+                        w,
+                        h,
+                        cache.view.as_ref(),
+                        &cfg.augment,
+                        &mut r,
+                    );
                     standardize(&mut v);
                     v
                 })
@@ -860,6 +884,69 @@ impl TrainTarget {
     }
 }
 
+/// Appends the frames of further passes to `cache` and returns the zone table extended to
+/// them (each extra frame takes the zone of its nearest pose of `seq`) and the number of
+/// frames taken from each pass.
+///
+/// # Errors
+/// [`NetError::Data`] for an unreadable sequence or image; [`NetError::Config`] for a pass
+/// whose images do not have the camera's size.
+fn add_passes(
+    cache: &mut ImageCache,
+    zones: &ZoneTable,
+    seq: &Sequence,
+    extra: &[PathBuf],
+    camera: &Camera,
+    progress: &mut dyn FnMut(&TrainProgress),
+) -> Result<(ZoneTable, Vec<usize>), NetError> {
+    let mut table = zones.clone();
+    let mut counts = Vec::with_capacity(extra.len());
+    let train_poses: Vec<endoloc_geometry::Pose> = seq.poses.iter().map(|p| p.pose).collect();
+    for dir in extra {
+        let pass = Sequence::open(dir)?;
+        if pass.is_empty() {
+            return Err(NetError::Config(format!(
+                "extra pass {}: no frames",
+                dir.display()
+            )));
+        }
+        let first = pass.load_gray(0)?;
+        if (first.width(), first.height()) != (camera.width, camera.height) {
+            return Err(NetError::Config(format!(
+                "extra pass {}: {} is {}x{}; the training camera is {}x{}",
+                dir.display(),
+                pass.image_paths[0].display(),
+                first.width(),
+                first.height(),
+                camera.width,
+                camera.height
+            )));
+        }
+        let poses: Vec<endoloc_geometry::Pose> = pass.poses.iter().map(|p| p.pose).collect();
+        let truth = zones.truth_zones(&train_poses, &poses);
+        let total = pass.len();
+        let images = ImageCache::from_sequence(&pass, cache.size, &mut |done| {
+            progress(&TrainProgress {
+                phase: Phase::LoadingImages,
+                done,
+                total,
+                epoch: 0,
+                loss: None,
+                val_accuracy: None,
+            })
+        })?;
+        let before = table.zone_of_frame.len();
+        for (i, zone) in truth.into_iter().enumerate() {
+            if let Some(z) = zone {
+                cache.pixels.extend_from_slice(images.image(i));
+                table.zone_of_frame.push(z);
+            }
+        }
+        counts.push(table.zone_of_frame.len() - before);
+    }
+    Ok((table, counts))
+}
+
 /// Trains a model on a training sequence and writes the model folder atomically: everything
 /// goes to `DIR.partial/` (checkpoints in `DIR.partial/checkpoint/`), which is renamed to
 /// `DIR` at the end. An existing `DIR` is refused unless `target.force`; an interrupted run
@@ -914,7 +1001,7 @@ pub fn train(
     let t_load = Instant::now();
     let size = cfg.backbone.input();
     let total = seq.len();
-    let cache = ImageCache::from_sequence(seq, size, &mut |done| {
+    let mut cache = ImageCache::from_sequence(seq, size, &mut |done| {
         progress(&TrainProgress {
             phase: Phase::LoadingImages,
             done,
@@ -924,6 +1011,15 @@ pub fn train(
             val_accuracy: None,
         })
     })?;
+    cache.view = Some(ViewIntrinsics::resized(camera, size.width, size.height));
+    let (pass_zones, pass_frames) = add_passes(
+        &mut cache,
+        zones,
+        seq,
+        &cfg.extra_sequences,
+        camera,
+        progress,
+    )?;
     let load_s = t_load.elapsed().as_secs_f64();
 
     let val_set = match &cfg.validation.sequence {
@@ -943,7 +1039,7 @@ pub fn train(
     let fitted = fit(
         cfg,
         &cache,
-        zones,
+        &pass_zones,
         val_set.as_ref(),
         Some(&ckpt),
         target.resume,
@@ -1007,6 +1103,7 @@ pub fn train(
         model_dir: target.dir.clone(),
         history: fitted.history,
         resumed_after_epoch: fitted.resumed_after_epoch,
+        pass_frames,
         load_s,
         train_s: fitted.train_s,
         describe_s,

@@ -52,6 +52,7 @@ fn tiny_config(epochs: usize) -> RegressConfig {
             channels: vec![8, 16],
             descriptor_dim: 16,
             stem_stride: 2,
+            pooling: Default::default(),
         },
         schedule: RegressSchedule {
             epochs,

@@ -65,6 +65,7 @@ fn tiny_config(epochs: usize) -> TrainConfig {
             channels: vec![8, 16],
             descriptor_dim: 16,
             stem_stride: 2,
+            pooling: Default::default(),
         },
         schedule: Schedule {
             epochs,
@@ -247,4 +248,78 @@ fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras
         .unwrap_err()
         .to_string();
     assert!(err.contains("10x10"), "{err}");
+}
+
+#[test]
+fn extra_passes_join_the_training_pairs_but_not_the_database_and_bad_passes_are_named() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = write_sequence(&tmp.path().join("train"), 4);
+    let pass = write_sequence(&tmp.path().join("pass2"), 5);
+    let zones = zones_of(&seq);
+    let cfg = TrainConfig {
+        extra_sequences: vec![pass.dir.clone()],
+        ..tiny_config(6)
+    };
+    let target = TrainTarget {
+        dir: tmp.path().join("model"),
+        force: false,
+        resume: false,
+    };
+    let report = train(
+        &cfg,
+        &seq,
+        &zones,
+        &camera(),
+        "synthetic",
+        &target,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(report.pass_frames, vec![pass.len()]);
+    let clf = ZoneClassifier::load(&target.dir).unwrap();
+    // Zones, database rows and poses are the training sequence's alone.
+    assert_eq!(clf.database().len(), seq.len());
+    assert_eq!(clf.zones().frame_count(), seq.len());
+    assert_eq!(clf.train_poses().len(), seq.len());
+    let saved = std::fs::read_to_string(target.dir.join("model.toml")).unwrap();
+    assert!(saved.contains("pass2"), "{saved}");
+
+    // A pass taken with another camera size is refused, naming its first image.
+    let small = tmp.path().join("small");
+    std::fs::create_dir_all(small.join("images")).unwrap();
+    image::GrayImage::new(W / 2, H / 2)
+        .save(small.join("images").join("000000.png"))
+        .unwrap();
+    endoloc_data::write_tum(
+        &small.join("poses.txt"),
+        &[StampedPose {
+            timestamp_s: 0.0,
+            pose: pose_from_parts(Vector3::zeros(), UnitQuaternion::identity()),
+        }],
+    )
+    .unwrap();
+    let cfg = TrainConfig {
+        extra_sequences: vec![small],
+        ..tiny_config(1)
+    };
+    let target = TrainTarget {
+        dir: tmp.path().join("model2"),
+        force: false,
+        resume: false,
+    };
+    let e = train(
+        &cfg,
+        &seq,
+        &zones,
+        &camera(),
+        "synthetic",
+        &target,
+        &mut |_| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("000000.png") && e.contains("32x24") && e.contains("64x48"),
+        "{e}"
+    );
 }

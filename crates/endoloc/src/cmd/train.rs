@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use endoloc_data::Dataset;
 
 use crate::cmd::baselines::{Regressor, train_regressor};
-use endoloc_net::backbone::BackboneConfig;
+use endoloc_net::backbone::{BackboneConfig, Pooling};
 use endoloc_net::train::{Phase, Schedule, TrainConfig, TrainTarget, train};
 use endoloc_net::{AugmentConfig, UniformBy, ZoneConfig, ZoneTable};
 
@@ -48,6 +48,13 @@ pub struct Args {
     #[arg(long, default_value = "train")]
     seq: String,
 
+    /// A further pass through the same colon (a sequence of this dataset; repeatable). Its
+    /// frames join the zone of their nearest training pose, so that positive pairs also join
+    /// views of one place from different passes; zones, database and maps stay those of
+    /// --seq.
+    #[arg(long, value_name = "SEQ")]
+    also_seq: Vec<String>,
+
     /// Zones: a number (uniform) or `expert` / `expert:N` (anatomical, N zones, default 50).
     #[arg(long, default_value = "50")]
     zones: String,
@@ -81,6 +88,16 @@ pub struct Args {
     /// is the former, coarser default).
     #[arg(long, value_name = "N")]
     stem_stride: Option<usize>,
+
+    /// Global pooling of the compact backbone: `average` (default) or `gem` (generalised mean,
+    /// p = 3).
+    #[arg(long, value_name = "KIND")]
+    pooling: Option<String>,
+
+    /// Augment with the view of the scope turned by up to ±DEG about its x and y axes (an
+    /// exact homography; default from the augmentation settings).
+    #[arg(long, value_name = "DEG")]
+    tilt_deg: Option<f32>,
 
     /// Schedule preset: `fast` or `paper`.
     #[arg(long, default_value = "fast")]
@@ -178,6 +195,20 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
             ),
         }
     }
+    if let Some(kind) = &args.pooling {
+        let kind: Pooling = match kind.trim().to_ascii_lowercase().as_str() {
+            "average" | "avg" => Pooling::Average,
+            "gem" => Pooling::Gem,
+            other => bail!("--pooling {other}: expected `average` or `gem`"),
+        };
+        match &mut cfg.backbone {
+            BackboneConfig::Compact { pooling, .. } => *pooling = kind,
+            other => bail!(
+                "--pooling applies to the compact backbone, not {}",
+                other.name()
+            ),
+        }
+    }
     if let Some(e) = args.epochs {
         cfg.schedule.epochs = e;
     }
@@ -187,6 +218,12 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
     }
     if let Some(b) = args.batch_pairs {
         cfg.schedule.batch_pairs = b;
+    }
+    if let Some(t) = args.tilt_deg {
+        if !(0.0..=45.0).contains(&t) {
+            bail!("--tilt-deg {t}: expected 0 to 45 degrees");
+        }
+        cfg.augment.tilt_deg = t;
     }
     if args.no_augment {
         cfg.augment = AugmentConfig::off();
@@ -203,7 +240,6 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
     Ok(cfg)
 }
 
-/// Runs `endoloc train`.
 /// What `endoloc train` trains.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum TrainMethod {
@@ -215,6 +251,7 @@ pub enum TrainMethod {
     Offsetnet,
 }
 
+/// Runs `endoloc train`.
 pub fn run(args: Args) -> Result<()> {
     if let Some(n) = args.threads {
         rayon::ThreadPoolBuilder::new()
@@ -245,6 +282,13 @@ pub fn run(args: Args) -> Result<()> {
     let dataset = Dataset::open(&args.data)?;
     let seq = dataset.sequence(&args.seq)?;
     let zones = ZoneTable::from_sequence(&seq, &zcfg)?;
+    let mut cfg = cfg;
+    for name in &args.also_seq {
+        if *name == args.seq {
+            bail!("--also-seq {name}: that is the training sequence itself");
+        }
+        cfg.extra_sequences.push(dataset.sequence(name)?.dir);
+    }
     eprintln!(
         "training {} on {} ({} frames, {} zones, {}), {} epochs of {} pairs, device {}",
         cfg.backbone.name(),
@@ -318,6 +362,12 @@ pub fn run(args: Args) -> Result<()> {
         zones.len(),
         zones.frame_count()
     );
+    for (dir, n) in cfg.extra_sequences.iter().zip(&report.pass_frames) {
+        println!(
+            "extra pass   {} ({n} frames joined the pairs)",
+            dir.display()
+        );
+    }
     if let Some(r) = last {
         println!("final loss   {:.4} (epoch {})", r.loss, r.epoch);
     }
@@ -349,4 +399,42 @@ pub fn run(args: Args) -> Result<()> {
         report.describe_s
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn config(extra: &[&str]) -> Result<TrainConfig> {
+        let mut argv = vec!["train", "--data", "d", "--out", "m"];
+        argv.extend(extra);
+        train_config(&Cli::try_parse_from(argv)?.args)
+    }
+
+    #[test]
+    fn pooling_and_tilt_flags_reach_the_config_and_bad_values_are_named() {
+        let cfg = config(&["--pooling", "gem", "--tilt-deg", "12"]).unwrap();
+        let BackboneConfig::Compact { pooling, .. } = cfg.backbone else {
+            panic!("compact expected");
+        };
+        assert_eq!(pooling, Pooling::Gem);
+        assert_eq!(cfg.augment.tilt_deg, 12.0);
+        let plain = config(&[]).unwrap();
+        assert_eq!(plain.backbone, BackboneConfig::compact());
+        let e = config(&["--pooling", "max"]).unwrap_err().to_string();
+        assert!(e.contains("--pooling max") && e.contains("gem"), "{e}");
+        let e = config(&["--tilt-deg", "90"]).unwrap_err().to_string();
+        assert!(e.contains("--tilt-deg 90"), "{e}");
+        let e = config(&["--backbone", "googlenet", "--pooling", "gem"])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("compact backbone"), "{e}");
+    }
 }

@@ -47,7 +47,7 @@ pub(crate) fn query_input(
     } else {
         (0.0, 0.0)
     };
-    let mut v = augment(cache.image(f), w, h, &cfg.photometric(), &mut rng);
+    let mut v = augment(cache.image(f), w, h, None, &cfg.photometric(), &mut rng);
     let turn = view_turn(roll, pitch, yaw);
     if roll != 0.0 || pitch != 0.0 || yaw != 0.0 {
         let centred = ViewIntrinsics::centred(w, h, w as f64 / 2.0);
