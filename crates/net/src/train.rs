@@ -245,6 +245,12 @@ impl TrainConfig {
                 "inference_batch must be at least 1".into(),
             ));
         }
+        if !(0.0..=45.0).contains(&self.augment.tilt_deg) {
+            return Err(NetError::Config(format!(
+                "augment.tilt_deg {} must be in [0, 45] degrees",
+                self.augment.tilt_deg
+            )));
+        }
         Ok(())
     }
 }

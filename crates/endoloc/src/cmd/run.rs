@@ -25,6 +25,7 @@ use crate::cmd::demo::{parse, stage};
 ///   schedule = "fast"                  # fast | paper
 ///   epochs = 0                         # 0 = the schedule's
 ///   seed = 0
+///   pretrained = "models/pretrain/weights.safetensors"   # optional start weights
 ///   [map]
 ///   images_per_zone = 8
 ///   threshold = 25.0                   # map; test frames at twice it, retried at it
@@ -80,6 +81,8 @@ struct TrainStage {
     schedule: String,
     epochs: usize,
     seed: u64,
+    /// Start from these weights (`--pretrained`; a path like `out` and `data`).
+    pretrained: Option<PathBuf>,
 }
 
 impl Default for TrainStage {
@@ -89,6 +92,7 @@ impl Default for TrainStage {
             schedule: "fast".into(),
             epochs: 0,
             seed: 0,
+            pretrained: None,
         }
     }
 }
@@ -194,6 +198,9 @@ pub fn run(args: Args) -> Result<()> {
     ]);
     if exp.train.epochs > 0 {
         train.extend(s(&["--epochs", &exp.train.epochs.to_string()]));
+    }
+    if let Some(w) = &exp.train.pretrained {
+        train.extend(s(&["--pretrained", &w.display().to_string()]));
     }
     train.extend(s(force));
     stage("train", &train);

@@ -270,6 +270,7 @@ impl RegressConfig {
     pub(crate) fn photometric(&self) -> AugmentConfig {
         AugmentConfig {
             rotation_deg: 0.0,
+            tilt_deg: 0.0,
             scale: 0.0,
             translate: 0.0,
             ..self.augment.clone()
