@@ -285,6 +285,20 @@ pub struct TrainProgress {
     pub val_accuracy: Option<f32>,
 }
 
+impl TrainProgress {
+    /// Progress of a phase outside the optimisation (no epoch, loss or accuracy).
+    pub fn outside_training(phase: Phase, done: usize, total: usize) -> Self {
+        TrainProgress {
+            phase,
+            done,
+            total,
+            epoch: 0,
+            loss: None,
+            val_accuracy: None,
+        }
+    }
+}
+
 /// One epoch of the training history.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct EpochRecord {
@@ -932,14 +946,11 @@ fn add_passes(
         let truth = zones.truth_zones(&train_poses, &poses);
         let total = pass.len();
         let images = ImageCache::from_sequence(&pass, cache.size, &mut |done| {
-            progress(&TrainProgress {
-                phase: Phase::LoadingImages,
+            progress(&TrainProgress::outside_training(
+                Phase::LoadingImages,
                 done,
                 total,
-                epoch: 0,
-                loss: None,
-                val_accuracy: None,
-            })
+            ))
         })?;
         let before = table.zone_of_frame.len();
         for (i, zone) in truth.into_iter().enumerate() {
@@ -1008,14 +1019,11 @@ pub fn train(
     let size = cfg.backbone.input();
     let total = seq.len();
     let mut cache = ImageCache::from_sequence(seq, size, &mut |done| {
-        progress(&TrainProgress {
-            phase: Phase::LoadingImages,
+        progress(&TrainProgress::outside_training(
+            Phase::LoadingImages,
             done,
             total,
-            epoch: 0,
-            loss: None,
-            val_accuracy: None,
-        })
+        ))
     })?;
     cache.view = Some(ViewIntrinsics::resized(camera, size.width, size.height));
     let (pass_zones, pass_frames) = add_passes(
@@ -1063,14 +1071,11 @@ pub fn train(
         &frames,
         cfg.inference_batch,
         &mut |done| {
-            progress(&TrainProgress {
-                phase: Phase::Describing,
+            progress(&TrainProgress::outside_training(
+                Phase::Describing,
                 done,
                 total,
-                epoch: 0,
-                loss: None,
-                val_accuracy: None,
-            })
+            ))
         },
     );
     let describe_s = t_desc.elapsed().as_secs_f64();
@@ -1080,14 +1085,7 @@ pub fn train(
         descriptors,
         zones.zone_of_frame.clone(),
     )?;
-    progress(&TrainProgress {
-        phase: Phase::Saving,
-        done: 0,
-        total: 1,
-        epoch: 0,
-        loss: None,
-        val_accuracy: None,
-    });
+    progress(&TrainProgress::outside_training(Phase::Saving, 0, 1));
     let model_cfg = ModelConfig {
         format_version: model::FORMAT_VERSION,
         backbone: cfg.backbone.clone(),

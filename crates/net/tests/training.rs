@@ -4,7 +4,7 @@ use endoloc_data::{Sequence, StampedPose};
 use endoloc_geometry::{Camera, pose::pose_from_parts};
 use endoloc_net::backbone::BackboneConfig;
 use endoloc_net::train::{
-    ImageCache, Schedule, TrainConfig, TrainTarget, ValidationConfig, fit, train,
+    ImageCache, Schedule, TrainConfig, TrainReport, TrainTarget, ValidationConfig, fit, train,
 };
 use endoloc_net::{
     AugmentConfig, InputSize, NetError, UniformBy, ZoneClassifier, ZoneConfig, ZoneTable,
@@ -88,6 +88,29 @@ fn tiny_config(epochs: usize) -> TrainConfig {
         device: "cpu".into(),
         ..TrainConfig::default()
     }
+}
+
+/// Trains a fresh model into `dir` (no force, no resume).
+fn train_into(
+    dir: &Path,
+    cfg: &TrainConfig,
+    seq: &Sequence,
+    zones: &ZoneTable,
+) -> Result<TrainReport, NetError> {
+    let target = TrainTarget {
+        dir: dir.to_path_buf(),
+        force: false,
+        resume: false,
+    };
+    train(
+        cfg,
+        seq,
+        zones,
+        &camera(),
+        "synthetic",
+        &target,
+        &mut |_| {},
+    )
 }
 
 fn zones_of(seq: &Sequence) -> ZoneTable {
@@ -260,28 +283,15 @@ fn extra_passes_join_the_training_pairs_but_not_the_database_and_bad_passes_are_
         extra_sequences: vec![pass.dir.clone()],
         ..tiny_config(6)
     };
-    let target = TrainTarget {
-        dir: tmp.path().join("model"),
-        force: false,
-        resume: false,
-    };
-    let report = train(
-        &cfg,
-        &seq,
-        &zones,
-        &camera(),
-        "synthetic",
-        &target,
-        &mut |_| {},
-    )
-    .unwrap();
+    let dir = tmp.path().join("model");
+    let report = train_into(&dir, &cfg, &seq, &zones).unwrap();
     assert_eq!(report.pass_frames, vec![pass.len()]);
-    let clf = ZoneClassifier::load(&target.dir).unwrap();
+    let clf = ZoneClassifier::load(&dir).unwrap();
     // Zones, database rows and poses are the training sequence's alone.
     assert_eq!(clf.database().len(), seq.len());
     assert_eq!(clf.zones().frame_count(), seq.len());
     assert_eq!(clf.train_poses().len(), seq.len());
-    let saved = std::fs::read_to_string(target.dir.join("model.toml")).unwrap();
+    let saved = std::fs::read_to_string(dir.join("model.toml")).unwrap();
     assert!(saved.contains("pass2"), "{saved}");
 
     // A pass taken with another camera size is refused, naming its first image.
@@ -302,22 +312,9 @@ fn extra_passes_join_the_training_pairs_but_not_the_database_and_bad_passes_are_
         extra_sequences: vec![small],
         ..tiny_config(1)
     };
-    let target = TrainTarget {
-        dir: tmp.path().join("model2"),
-        force: false,
-        resume: false,
-    };
-    let e = train(
-        &cfg,
-        &seq,
-        &zones,
-        &camera(),
-        "synthetic",
-        &target,
-        &mut |_| {},
-    )
-    .unwrap_err()
-    .to_string();
+    let e = train_into(&tmp.path().join("model2"), &cfg, &seq, &zones)
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("000000.png") && e.contains("32x24") && e.contains("64x48"),
         "{e}"
