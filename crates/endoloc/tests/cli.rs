@@ -283,6 +283,38 @@ fn every_method_and_experiment_writes_its_outputs() {
         .collect();
     assert_eq!(offsets, ["-1", "0", "1"]);
     assert!(st.root.join("perturb/report.html").is_file());
+
+    // The pretraining recipe: a second pass joins the pairs, and a model starts from our
+    // own weights.
+    let text = ok(&[
+        "train",
+        "--data",
+        &r("data"),
+        "--zones",
+        "6",
+        "--epochs",
+        "1",
+        "--also-seq",
+        "test",
+        "--pretrained",
+        &r("model/weights.safetensors"),
+        "--out",
+        &r("model_passes"),
+    ]);
+    assert!(
+        text.contains("extra pass") && text.contains("(40 frames joined the pairs)"),
+        "{text}"
+    );
+    let err = fails(&[
+        "train",
+        "--data",
+        &r("data"),
+        "--also-seq",
+        "nope",
+        "--out",
+        &r("model_nope"),
+    ]);
+    assert!(err.contains("nope") && err.contains("test"), "{err}");
 }
 
 #[test]

@@ -234,7 +234,7 @@ impl TrainConfig {
         if !(s.learning_rate > 0.0 && s.final_learning_rate > 0.0) {
             return Err(NetError::Config("learning rates must be positive".into()));
         }
-        if !(self.margin > 0.0) {
+        if self.margin.is_nan() || self.margin <= 0.0 {
             return Err(NetError::Config(format!(
                 "margin {} must be positive",
                 self.margin

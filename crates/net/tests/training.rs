@@ -24,7 +24,7 @@ const H: u32 = 48;
 fn frame(z: usize, rng: &mut ChaCha8Rng) -> image::GrayImage {
     let angle = z as f32 * std::f32::consts::PI / ZONES as f32;
     let freq = 0.15 + 0.1 * z as f32;
-    let phase: f32 = rng.random_range(0.0..6.28);
+    let phase: f32 = rng.random_range(0.0..std::f32::consts::TAU);
     let (s, c) = angle.sin_cos();
     image::GrayImage::from_fn(W, H, |x, y| {
         let v = ((x as f32 * c + y as f32 * s) * freq + phase).sin();
