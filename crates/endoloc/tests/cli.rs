@@ -361,3 +361,63 @@ fn bad_experiment_arguments_are_clear_errors() {
         "keep me"
     );
 }
+
+#[test]
+fn pretrain_chains_colons_and_writes_start_weights_that_train_accepts() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("pretrain");
+    let args = [
+        "pretrain",
+        "--out",
+        &s(&out),
+        "--preset",
+        "small",
+        "--colons",
+        "2",
+        "--frames",
+        "40",
+        "--size",
+        "160x120",
+        "--zones",
+        "4",
+        "--epochs",
+        "1",
+    ];
+    let text = ok(&args);
+    for d in ["colon-101", "colon-202", "model-101", "model-202"] {
+        assert!(out.join(d).is_dir(), "{d} missing:\n{text}");
+    }
+    // The second colon starts from the first one's weights.
+    let second = std::fs::read_to_string(out.join("model-202/model.toml")).unwrap();
+    assert!(second.contains("model-101"), "{second}");
+    assert!(out.join("weights.safetensors").is_file());
+    // Never overwritten silently; with --force the colons and models are reused.
+    let err = fails(&args);
+    assert!(err.contains("--force"), "{err}");
+    let mut again = args.to_vec();
+    again.push("--force");
+    let text = ok(&again);
+    assert!(text.contains("reusing"), "{text}");
+    // The weights start a model on other data.
+    ok(&[
+        "train",
+        "--data",
+        &s(&out.join("colon-202")),
+        "--zones",
+        "4",
+        "--epochs",
+        "1",
+        "--pretrained",
+        &s(&out.join("weights.safetensors")),
+        "--out",
+        &s(&tmp.path().join("model")),
+    ]);
+    let err = fails(&[
+        "pretrain",
+        "--out",
+        &s(&tmp.path().join("p0")),
+        "--colons",
+        "0",
+    ]);
+    assert!(err.contains("--colons 0"), "{err}");
+}

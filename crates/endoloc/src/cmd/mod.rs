@@ -9,6 +9,7 @@ pub mod experiment;
 pub mod features;
 pub mod import;
 pub mod localize;
+pub mod pretrain;
 pub mod run;
 pub mod simulate;
 pub mod train;

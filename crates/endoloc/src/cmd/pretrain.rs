@@ -1,0 +1,165 @@
+//! `endoloc pretrain`: start weights for the zone classifier from simulated colons.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+
+use crate::cmd;
+use crate::cmd::demo::{parse, stage};
+
+/// Pretrain the zone classifier's network on simulated colons, each seen in two passes, and
+/// write start weights for `endoloc train --pretrained`.
+///
+/// One pass through a colon cannot show how a second pass sees the same place from elsewhere
+/// (other gaze, lateral offset, roll); the paper starts from Places weights for that. Here
+/// each pretraining colon is simulated with a training and a test pass, and the network is
+/// trained with the test pass's frames in the zone of their nearest training pose
+/// (`endoloc train --also-seq test`), colon after colon, each starting from the previous
+/// one's weights. The colons share nothing with your data but the simulator.
+///
+/// Measured on the `paper` preset (50 zones, test pass; exact / within ±1 zone per frame):
+/// no pretraining 66.2 / 84.8 %, one colon 71.5 / 89.9 %, two colons (the default)
+/// 74.9 / 90.5 %. Each colon costs about 10 minutes on 2 cores (simulation 2.5, training 7).
+///
+/// Output: OUT/colon-SEED/ (each dataset), OUT/model-SEED/ (each model) and
+/// OUT/weights.safetensors (the last model's weights). A colon or model already in OUT is
+/// reused, so an interrupted run continues where it stopped; delete one to redo it.
+///
+/// Examples:
+///
+///   endoloc pretrain --out models/pretrain
+///
+///   endoloc train --data data/paper --pretrained models/pretrain/weights.safetensors --out models/paper50
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Number of simulated colons, trained on one after the other.
+    #[arg(long, default_value_t = 2)]
+    colons: usize,
+    /// Seed of the first colon; colon i has seed `seed + 101·i`.
+    #[arg(long, default_value_t = 101)]
+    seed: u64,
+    /// Simulator preset of the colons (`paper`, or `small` for a quick try).
+    #[arg(long, default_value = "paper")]
+    preset: String,
+    /// Uniform zones of each colon's training pass.
+    #[arg(long, default_value_t = 50)]
+    zones: usize,
+    /// Training epochs per colon (default: the `fast` schedule's).
+    #[arg(long)]
+    epochs: Option<usize>,
+    /// Frames of each pass (default: the preset's).
+    #[arg(long, value_name = "N")]
+    frames: Option<usize>,
+    /// Image width and height WIDTHxHEIGHT (default: the preset's).
+    #[arg(long, value_name = "WxH")]
+    size: Option<String>,
+    /// Replace an existing OUT/weights.safetensors.
+    #[arg(long)]
+    force: bool,
+}
+
+/// Runs `endoloc pretrain`.
+pub fn run(args: Args) -> Result<()> {
+    if args.colons == 0 {
+        bail!("--colons 0: at least one colon is needed");
+    }
+    let weights = args.out.join("weights.safetensors");
+    if weights.exists() && !args.force {
+        bail!("{} exists; pass --force to replace it", weights.display());
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let size = match &args.size {
+        Some(text) => {
+            let s: endoloc_net::InputSize = text
+                .parse()
+                .with_context(|| format!("--size {text}: expected WIDTHxHEIGHT"))?;
+            Some((s.width, s.height))
+        }
+        None => None,
+    };
+    let mut previous: Option<PathBuf> = None;
+    for i in 0..args.colons {
+        let seed = args.seed + 101 * i as u64;
+        let data = args.out.join(format!("colon-{seed}"));
+        let model = args.out.join(format!("model-{seed}"));
+        let title = format!("colon {} of {}", i + 1, args.colons);
+        if data.join("dataset.toml").is_file() {
+            eprintln!("\n== {title}: reusing {}", data.display());
+        } else {
+            let mut sim = strings(&[
+                "simulate",
+                "--preset",
+                &args.preset,
+                "--seed",
+                &seed.to_string(),
+                "--out",
+                &path(&data),
+                "--force",
+            ]);
+            if let Some(n) = args.frames {
+                let n = n.to_string();
+                sim.extend(strings(&["--train-frames", &n, "--test-frames", &n]));
+            }
+            if let Some((w, h)) = size {
+                sim.extend(strings(&[
+                    "--width",
+                    &w.to_string(),
+                    "--height",
+                    &h.to_string(),
+                ]));
+            }
+            stage(&format!("{title}: simulate"), &sim);
+            cmd::simulate::run(parse(&sim)?)?;
+        }
+        if model.join("weights.safetensors").is_file() {
+            eprintln!("== {title}: reusing {}", model.display());
+        } else {
+            let mut train = strings(&[
+                "train",
+                "--data",
+                &path(&data),
+                "--zones",
+                &args.zones.to_string(),
+                "--also-seq",
+                "test",
+                "--out",
+                &path(&model),
+                "--force",
+            ]);
+            if let Some(w) = &previous {
+                train.extend(strings(&["--pretrained", &path(w)]));
+            }
+            if let Some(e) = args.epochs {
+                train.extend(strings(&["--epochs", &e.to_string()]));
+            }
+            stage(&format!("{title}: train"), &train);
+            cmd::train::run(parse(&train)?)?;
+        }
+        previous = Some(model.join("weights.safetensors"));
+    }
+    let last = previous.context("no colon was trained")?;
+    let tmp = args.out.join("weights.safetensors.partial");
+    std::fs::copy(&last, &tmp)
+        .with_context(|| format!("copying {} to {}", last.display(), tmp.display()))?;
+    std::fs::rename(&tmp, &weights)
+        .with_context(|| format!("renaming {} to {}", tmp.display(), weights.display()))?;
+    println!("wrote     {}", weights.display());
+    println!(
+        "next      endoloc train --data DATA --pretrained {} --out MODEL",
+        weights.display()
+    );
+    Ok(())
+}
+
+fn strings(v: &[&str]) -> Vec<String> {
+    v.iter().map(|s| s.to_string()).collect()
+}
+
+fn path(p: &Path) -> String {
+    p.display().to_string()
+}
