@@ -230,6 +230,18 @@ fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras
             .fold(0.0f32, f32::max);
         assert!(diff < 1e-5, "frame {i}: max |Δ| {diff}");
     }
+    // Prepared network inputs give the same descriptors; an input of the wrong size is refused.
+    let size = clf.config().backbone.input();
+    let inputs: Vec<Vec<f32>> = imgs
+        .iter()
+        .map(|im| endoloc_net::preprocess::network_input(im, size))
+        .collect();
+    assert_eq!(clf.describe_inputs(&inputs).unwrap(), d);
+    let e = clf
+        .describe_inputs(&[vec![0.0; 7]])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("7 values"), "{e}");
     // Loading twice gives bit-identical descriptors.
     let again = ZoneClassifier::load(&target.dir)
         .unwrap()
