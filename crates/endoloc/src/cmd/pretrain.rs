@@ -19,7 +19,8 @@ use crate::cmd::demo::{parse, stage};
 ///
 /// Measured on the `paper` preset (50 zones, test pass; exact / within ±1 zone per frame):
 /// no pretraining 66.2 / 84.8 %, one colon 71.5 / 89.9 %, two colons (the default)
-/// 74.9 / 90.5 %. Each colon costs about 10 minutes on 2 cores (simulation 2.5, training 7).
+/// 74.9 / 90.5 %. Each colon costs about 9 minutes on 2 cores (simulation 2, training 7):
+/// 18 minutes for the default two.
 ///
 /// Output: OUT/colon-SEED/ (each dataset), OUT/model-SEED/ (each model) and
 /// OUT/weights.safetensors (the last model's weights). A colon or model already in OUT is
