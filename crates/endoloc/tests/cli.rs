@@ -145,8 +145,13 @@ fn every_method_and_experiment_writes_its_outputs() {
         &r("zones.csv"),
     ]);
     assert!(text.contains("verified") && text.contains("live"), "{text}");
+    assert!(text.contains("track") && text.contains("smooth"), "{text}");
     let zones = std::fs::read_to_string(st.root.join("zones.csv")).unwrap();
     let header = zones.lines().next().unwrap();
+    assert!(
+        header.contains(",forward_zone,viterbi_zone,track_zone,track_frame,smooth_zone,"),
+        "{header}"
+    );
     assert!(
         header.ends_with(",truth_zone,verified_zone,live_zone"),
         "{header}"

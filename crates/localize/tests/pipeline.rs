@@ -95,6 +95,7 @@ fn localizer(f: &Fixture, cfg: LocalizerConfig) -> Localizer {
             by: UniformBy::ArcLength,
         },
         temporal: TemporalConfig::default(),
+        track: Default::default(),
         train: TrainConfig::default(),
     };
     let clf = ZoneClassifier::from_parts(

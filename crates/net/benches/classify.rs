@@ -66,6 +66,7 @@ fn classifier() -> ZoneClassifier {
         backbone,
         zones: zcfg,
         temporal: TemporalConfig::default(),
+        track: Default::default(),
         train: TrainConfig::default(),
     };
     ZoneClassifier::from_parts(

@@ -307,6 +307,25 @@ impl ZoneClassifier {
         self.database.lookup(descriptor, self.config.score)
     }
 
+    /// Distance from a descriptor to every training frame of the zone table (`∞` for frames
+    /// without a descriptor): the evidence of the track filter ([`crate::track`]).
+    ///
+    /// # Errors
+    /// [`NetError::Config`] for a descriptor of the wrong length.
+    pub fn frame_distances(&self, descriptor: &[f32]) -> Result<Vec<f32>, NetError> {
+        let mut d = self.database.frame_distances(descriptor)?;
+        d.resize(self.zones.frame_count(), f32::INFINITY);
+        Ok(d)
+    }
+
+    /// A track filter over the training frames with the model's parameters.
+    ///
+    /// # Errors
+    /// [`NetError::Config`] for bad parameters.
+    pub fn track_filter(&self) -> Result<crate::TrackFilter, NetError> {
+        crate::TrackFilter::new(self.zones.zone_of_frame.clone(), self.config.track)
+    }
+
     /// The zone of one frame.
     ///
     /// # Errors

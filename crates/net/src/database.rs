@@ -200,6 +200,44 @@ impl DescriptorDatabase {
         })
     }
 
+    /// The number of training frames the rows come from (`1 +` the largest frame index).
+    pub fn frame_count(&self) -> usize {
+        self.frame_of_row.iter().max().map_or(0, |f| f + 1)
+    }
+
+    /// Distance from descriptor `q` to every training frame (the nearest of the frame's rows;
+    /// `∞` for a frame without rows), indexed by training frame: the evidence of the
+    /// frame-level track filter ([`crate::track`]).
+    ///
+    /// # Errors
+    /// [`NetError::Config`] when `q` has the wrong length.
+    pub fn frame_distances(&self, q: &[f32]) -> Result<Vec<f32>, NetError> {
+        if q.len() != self.dim {
+            return Err(NetError::Config(format!(
+                "descriptor of length {}; the database holds length {}",
+                q.len(),
+                self.dim
+            )));
+        }
+        let mut out = vec![f32::INFINITY; self.frame_count()];
+        for (r, &f) in self
+            .descriptors
+            .chunks_exact(self.dim)
+            .zip(&self.frame_of_row)
+        {
+            let d = r
+                .iter()
+                .zip(q)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f32>()
+                .sqrt();
+            if d < out[f] {
+                out[f] = d;
+            }
+        }
+        Ok(out)
+    }
+
     /// Writes `database.bin` (see the module documentation for the layout).
     ///
     /// # Errors
@@ -268,6 +306,26 @@ mod tests {
             vec![0, 0, 1, 1],
         )
         .unwrap()
+    }
+
+    #[test]
+    fn frame_distances_take_the_nearest_row_of_each_frame() {
+        // Rows of frames 0, 1, 1 (an augmented view of frame 1) and 3 (frame 2 has no row).
+        let d = DescriptorDatabase::from_rows(
+            2,
+            2,
+            vec![0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 3.0],
+            vec![0, 0, 0, 1],
+            vec![0, 1, 1, 3],
+        )
+        .unwrap();
+        let f = d.frame_distances(&[0.0, 0.6]).unwrap();
+        assert_eq!(f.len(), 4);
+        assert!((f[0] - 0.6).abs() < 1e-6);
+        assert!((f[1] - 0.4).abs() < 1e-6, "the nearer of frame 1's rows");
+        assert!(f[2].is_infinite());
+        assert!((f[3] - 2.4).abs() < 1e-6);
+        assert!(d.frame_distances(&[0.0]).is_err());
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! pairs of images from the same zone and from different zones ([`pairs`], [`train`]); the
 //! descriptors of all training images form a database ([`database`]); a test image goes to
 //! the zone of its nearest descriptors ([`classifier`]), optionally smoothed over a video by
-//! an HMM over zones ([`temporal`]).
+//! an HMM over zones ([`temporal`]) or, finer, over training frames ([`track`]).
 //!
 //! The network runs on burn 0.22 with its pure-Rust `flex` CPU backend; a GPU backend is an
 //! optional crate feature (`cuda`, `wgpu`) chosen at run time ([`device`]).
@@ -30,6 +30,7 @@ pub mod preprocess;
 pub mod pretrained;
 pub mod regress;
 pub mod temporal;
+pub mod track;
 pub mod train;
 pub mod zones;
 
@@ -41,6 +42,7 @@ pub use error::NetError;
 pub use model::ModelConfig;
 pub use preprocess::InputSize;
 pub use temporal::{TemporalConfig, TemporalFilter, viterbi};
+pub use track::{TrackConfig, TrackEstimate, TrackFilter};
 pub use train::{
     EpochRecord, ImageCache, Phase, Schedule, TrainConfig, TrainProgress, TrainReport, TrainTarget,
     ValidationConfig, fit, train,

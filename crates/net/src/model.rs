@@ -18,6 +18,7 @@ use crate::NetError;
 use crate::backbone::{BackboneConfig, EmbeddingNet};
 use crate::database::{DescriptorDatabase, ScoreRule};
 use crate::temporal::TemporalConfig;
+use crate::track::TrackConfig;
 use crate::train::{EpochRecord, TrainConfig};
 use crate::zones::{ZONES_FILE, ZoneConfig, ZoneTable};
 use burn::tensor::Device;
@@ -63,6 +64,10 @@ pub struct ModelConfig {
     pub zones: ZoneConfig,
     /// Default temporal-filter parameters.
     pub temporal: TemporalConfig,
+    /// Default parameters of the frame-level track filter ([`crate::track`]); models written
+    /// before it existed get the defaults.
+    #[serde(default)]
+    pub track: TrackConfig,
     /// The training run.
     pub train: TrainConfig,
 }

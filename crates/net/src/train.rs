@@ -1091,6 +1091,7 @@ pub fn train(
         backbone: cfg.backbone.clone(),
         score: cfg.score,
         temporal: TemporalConfig::default(),
+        track: Default::default(),
         camera: *camera,
         dataset: dataset.to_string(),
         sequence: seq.name.clone(),

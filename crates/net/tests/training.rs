@@ -268,6 +268,42 @@ fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras
         preds.len()
     );
     assert_eq!(clf.truth_zone(&test.poses[30].pose), Some(2));
+    // The track filter over the test pass (real descriptors): causal and smoothed zones are
+    // at least as right as the per-frame ones.
+    let test_imgs: Vec<image::GrayImage> = (0..test.len())
+        .map(|i| test.load_gray(i).unwrap())
+        .collect();
+    let dists: Vec<Vec<f32>> = clf
+        .describe_batch(&test_imgs)
+        .unwrap()
+        .iter()
+        .map(|q| clf.frame_distances(q).unwrap())
+        .collect();
+    assert!(dists.iter().all(|d| d.len() == seq.len()));
+    let smoothed =
+        endoloc_net::track::smooth(&dists, &clf.zones().zone_of_frame, &clf.config().track)
+            .unwrap();
+    let mut filter = clf.track_filter().unwrap();
+    let tracked: Vec<usize> = dists
+        .iter()
+        .map(|d| filter.update(d).unwrap().zone)
+        .collect();
+    let count = |zones: &mut dyn Iterator<Item = usize>| {
+        zones
+            .enumerate()
+            .filter(|(i, z)| *z == i / PER_ZONE)
+            .count()
+    };
+    let right_smooth = count(&mut smoothed.iter().map(|e| e.zone));
+    let right_track = count(&mut tracked.into_iter());
+    assert!(
+        right_smooth >= right,
+        "smoothed {right_smooth} < per frame {right}"
+    );
+    assert!(
+        right_track + 2 >= right,
+        "tracked {right_track} vs per frame {right}"
+    );
 
     // Another camera or image size is a clear error.
     let other = Camera::from_hfov(W * 2, H * 2, 90.0);

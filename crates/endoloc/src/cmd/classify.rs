@@ -9,7 +9,11 @@ use endoloc_data::{Dataset, Sequence};
 use endoloc_geometry::Status;
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{FrameResult, Localizer, LocalizerConfig};
-use endoloc_net::{TemporalFilter, ZoneClassifier, ZonePrediction, viterbi};
+use endoloc_net::track::smooth;
+use endoloc_net::{
+    TemporalFilter, TrackConfig, TrackEstimate, TrackFilter, ZoneClassifier, ZonePrediction,
+    viterbi,
+};
 use rayon::prelude::*;
 
 use crate::cmd::localize::test_frame_surf;
@@ -17,10 +21,17 @@ use crate::cmd::localize::test_frame_surf;
 /// Classify every frame of a sequence into the model's zones and compare with the truth.
 ///
 /// Each frame goes to the zone of its nearest training descriptor (zone score = distance in
-/// descriptor space, lower is better). Beyond the paper, the per-frame zones are smoothed over
-/// the video by an HMM over zones: `forward` is the causal filter (live use), `viterbi` the
-/// offline best path. The truth zone of a frame is the zone of the nearest training pose
-/// (position, with 10° of orientation counting as 1 mm).
+/// descriptor space, lower is better). Beyond the paper, the zones are filtered over the
+/// video, two ways:
+///
+///   - an HMM over zones: `forward` is the causal filter (live use), `viterbi` the offline
+///     best path;
+///   - an HMM over (training frame, speed) that tracks the video along the training pass and
+///     takes the zone holding most of the belief: `track` is the causal filter, `smooth`
+///     forward–backward over the whole video (offline).
+///
+/// The truth zone of a frame is the zone of the nearest training pose (position, with 10° of
+/// orientation counting as 1 mm).
 ///
 /// With --verify K (and the model's maps, from `endoloc map`), each frame is also checked
 /// geometrically: its SURF features are registered in its K best zones, best first, and the
@@ -28,9 +39,9 @@ use crate::cmd::localize::test_frame_surf;
 /// localizer does the same with the forward filter and tracking (`live`). A frame that
 /// registers nowhere keeps its raw (or forward) zone.
 ///
-/// Output: a CSV with one row per frame (frame, raw zone, its distance, nearest training
-/// frame, forward-filtered zone, Viterbi zone, truth; then verified and live zones with
-/// --verify) to --out or stdout, all zone scores with --scores, and a summary of accuracies
+/// Output: a CSV with one row per frame (frame, chosen zone, raw zone, its distance, nearest
+/// training frame, forward and Viterbi zones, track zone and training frame, smoothed zone,
+/// truth; then verified and live zones with --verify) to --out or stdout, all zone scores with --scores, and a summary of accuracies
 /// and timing on stderr.
 ///
 /// Examples:
@@ -51,8 +62,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     seq: PathBuf,
 
-    /// Which zone the summary headlines and `zone` column holds: none (raw), forward or
-    /// viterbi. All three are always in the CSV.
+    /// Which zone the `zone` column holds: none (raw), forward, viterbi, track or smooth. All
+    /// are always in the CSV.
     #[arg(long, default_value = "forward")]
     filter: String,
 
@@ -75,6 +86,30 @@ pub struct Args {
     /// HMM: emission temperature in descriptor-distance units (default: the model's).
     #[arg(long)]
     temperature: Option<f32>,
+
+    /// Track filter: emission temperature (descriptor-distance units).
+    #[arg(long)]
+    track_temperature: Option<f32>,
+
+    /// Track filter: scale of the move per frame, in training frames.
+    #[arg(long)]
+    track_scale: Option<f64>,
+
+    /// Track filter: largest move per frame, in training frames.
+    #[arg(long)]
+    track_step: Option<usize>,
+
+    /// Track filter: largest speed, training frames per test frame (0: no speed state).
+    #[arg(long)]
+    track_speed: Option<usize>,
+
+    /// Track filter: probability per frame of the speed changing by one.
+    #[arg(long)]
+    track_speed_change: Option<f64>,
+
+    /// Track filter: jump probability per frame.
+    #[arg(long)]
+    track_jump: Option<f64>,
 
     /// Verify every frame against the model's SURF maps in its K best zones (0 = off; needs
     /// `endoloc map` first). Adds the verified (per frame) and live zones.
@@ -184,9 +219,9 @@ impl Acc {
 /// Runs `endoloc classify`.
 pub fn run(args: Args) -> Result<()> {
     let filter = args.filter.trim().to_ascii_lowercase();
-    if !["none", "raw", "forward", "viterbi"].contains(&filter.as_str()) {
+    if !["none", "raw", "forward", "viterbi", "track", "smooth"].contains(&filter.as_str()) {
         bail!(
-            "--filter {}: expected none, forward or viterbi",
+            "--filter {}: expected none, forward, viterbi, track or smooth",
             args.filter
         );
     }
@@ -219,15 +254,44 @@ pub fn run(args: Args) -> Result<()> {
         temporal.temperature = t;
     }
     temporal.validate()?;
+    let mut track_cfg: TrackConfig = clf.config().track;
+    if let Some(v) = args.track_temperature {
+        track_cfg.temperature = v;
+    }
+    if let Some(v) = args.track_scale {
+        track_cfg.step_scale = v;
+    }
+    if let Some(v) = args.track_step {
+        track_cfg.max_step = v;
+    }
+    if let Some(v) = args.track_speed {
+        track_cfg.max_speed = v;
+    }
+    if let Some(v) = args.track_speed_change {
+        track_cfg.speed_change = v;
+    }
+    if let Some(v) = args.track_jump {
+        track_cfg.jump = v;
+    }
+    track_cfg.validate()?;
 
     let bar = crate::ui::progress_bar(n as u64, "classifying");
     let t0 = Instant::now();
     let mut preds: Vec<ZonePrediction> = Vec::with_capacity(n);
+    let mut frame_dist: Vec<Vec<f32>> = Vec::with_capacity(n);
     let frames: Vec<usize> = (0..n).collect();
     for chunk in frames.chunks(64) {
         let imgs: Result<Vec<image::GrayImage>, _> =
             chunk.par_iter().map(|&i| seq.load_gray(i)).collect();
-        preds.extend(clf.classify_batch(&imgs?)?);
+        let descriptors = clf.describe_batch(&imgs?)?;
+        let looked: Result<Vec<_>, _> = descriptors
+            .par_iter()
+            .map(|q| Ok::<_, endoloc_net::NetError>((clf.lookup(q)?, clf.frame_distances(q)?)))
+            .collect();
+        for (p, d) in looked? {
+            preds.push(p);
+            frame_dist.push(d);
+        }
         bar.set_position(preds.len() as u64);
     }
     bar.finish_and_clear();
@@ -236,6 +300,13 @@ pub fn run(args: Args) -> Result<()> {
     let mut f = TemporalFilter::new(clf.zone_count(), temporal);
     let forward: Vec<usize> = preds.iter().map(|p| f.update(p)).collect();
     let offline = viterbi(&preds, clf.zone_count(), &temporal);
+    let zone_of_frame = clf.zones().zone_of_frame.clone();
+    let mut tf = TrackFilter::new(zone_of_frame.clone(), track_cfg)?;
+    let tracked: Vec<TrackEstimate> = frame_dist
+        .iter()
+        .map(|d| tf.update(d))
+        .collect::<Result<_, _>>()?;
+    let smoothed = smooth(&frame_dist, &zone_of_frame, &track_cfg)?;
     let truth: Vec<Option<usize>> = {
         let poses: Vec<_> = seq.poses[..n].iter().map(|p| p.pose).collect();
         clf.zones().truth_zones(clf.train_poses(), &poses)
@@ -247,7 +318,7 @@ pub fn run(args: Args) -> Result<()> {
     };
 
     let mut csv = String::from(
-        "frame,zone,raw_zone,distance,nearest_train_frame,forward_zone,viterbi_zone,truth_zone",
+        "frame,zone,raw_zone,distance,nearest_train_frame,forward_zone,viterbi_zone,track_zone,track_frame,smooth_zone,truth_zone",
     );
     csv.push_str(if verified.is_some() {
         ",verified_zone,live_zone\n"
@@ -256,21 +327,27 @@ pub fn run(args: Args) -> Result<()> {
     });
     let (mut raw_acc, mut fwd_acc, mut vit_acc) = (Acc::default(), Acc::default(), Acc::default());
     let (mut ver_acc, mut live_acc) = (Acc::default(), Acc::default());
+    let (mut track_acc, mut smooth_acc) = (Acc::default(), Acc::default());
     for i in 0..n {
         let chosen = match filter.as_str() {
             "forward" => forward[i],
             "viterbi" => viterbi_zone(&offline, i),
+            "track" => tracked[i].zone,
+            "smooth" => smoothed[i].zone,
             _ => preds[i].zone,
         };
         let t = truth[i];
         let _ = write!(
             csv,
-            "{i},{chosen},{},{:.5},{},{},{},{}",
+            "{i},{chosen},{},{:.5},{},{},{},{},{},{},{}",
             preds[i].zone,
             preds[i].distance,
             preds[i].nearest_frame,
             forward[i],
             viterbi_zone(&offline, i),
+            tracked[i].zone,
+            tracked[i].frame,
+            smoothed[i].zone,
             t.map_or(String::new(), |t| t.to_string())
         );
         if let Some(v) = &verified {
@@ -281,6 +358,8 @@ pub fn run(args: Args) -> Result<()> {
             raw_acc.add(preds[i].zone, t);
             fwd_acc.add(forward[i], t);
             vit_acc.add(viterbi_zone(&offline, i), t);
+            track_acc.add(tracked[i].zone, t);
+            smooth_acc.add(smoothed[i].zone, t);
             if let Some(v) = &verified {
                 ver_acc.add(v.per_frame[i], t);
                 live_acc.add(v.live[i], t);
@@ -317,6 +396,8 @@ pub fn run(args: Args) -> Result<()> {
         eprintln!("{}", raw_acc.line("raw"));
         eprintln!("{}", fwd_acc.line("forward"));
         eprintln!("{}", vit_acc.line("viterbi"));
+        eprintln!("{}", track_acc.line("track"));
+        eprintln!("{}", smooth_acc.line("smooth"));
         if verified.is_some() {
             eprintln!("{}", ver_acc.line("verified"));
             eprintln!("{}", live_acc.line("live"));
