@@ -1,6 +1,6 @@
 //! Per-frame cost of zone classification on the CPU: preprocessing a 640×480 frame, the
 //! compact backbone's descriptor, the look-up in a 2610-frame database, and all of it
-//! together; plus one training step of the default schedule (64 pairs over 66 images).
+//! together; the temporal filters' update per frame; plus one training step of the default schedule (64 pairs over 66 images).
 //!
 //! Weights are random (timing does not depend on them). Run with
 //! `cargo bench -p endoloc-net --bench classify`.
@@ -99,6 +99,21 @@ fn bench_inference(c: &mut Criterion) {
     });
     g.bench_function("describe_and_lookup", |b| {
         b.iter(|| clf.classify(black_box(&img)).unwrap())
+    });
+    // The live filters' cost per frame, after the look-up: the zone HMM (50 states) and the
+    // track filter (2610 training frames × 7 speeds), with the frame distances it needs.
+    let pred = clf.lookup(&q).unwrap();
+    let mut zone_filter = endoloc_net::TemporalFilter::new(ZONES, clf.config().temporal);
+    g.bench_function("zone_filter_update", |b| {
+        b.iter(|| zone_filter.update(black_box(&pred)))
+    });
+    g.bench_function("frame_distances_2610", |b| {
+        b.iter(|| clf.frame_distances(black_box(&q)).unwrap())
+    });
+    let dist = clf.frame_distances(&q).unwrap();
+    let mut track = clf.track_filter().unwrap();
+    g.bench_function("track_filter_update_2610", |b| {
+        b.iter(|| track.update(black_box(&dist)).unwrap())
     });
     let batch: Vec<image::GrayImage> = (0..64).map(frame).collect();
     g.sample_size(10);

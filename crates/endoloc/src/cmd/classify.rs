@@ -62,9 +62,9 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     seq: PathBuf,
 
-    /// Which zone the `zone` column holds: none (raw), forward, viterbi, track or smooth. All
-    /// are always in the CSV.
-    #[arg(long, default_value = "forward")]
+    /// Which zone the `zone` column holds: none (raw), forward, viterbi, track (the default:
+    /// causal, as live) or smooth. All are always in the CSV.
+    #[arg(long, default_value = "track")]
     filter: String,
 
     /// Write the per-frame CSV here (default: stdout).
