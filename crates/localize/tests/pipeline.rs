@@ -122,6 +122,7 @@ fn predict(zone: usize) -> ZonePrediction {
         zone_scores,
         nearest_frame: 0,
         distance: 0.1,
+        descriptor: Vec::new(),
     }
 }
 

@@ -52,6 +52,9 @@ pub struct ZonePrediction {
     pub nearest_frame: usize,
     /// Distance to that descriptor.
     pub distance: f32,
+    /// The test descriptor the prediction was made from (for further look-ups such as the
+    /// track filter's frame distances, [`DescriptorDatabase::frame_distances`]).
+    pub descriptor: Vec<f32>,
 }
 
 /// Descriptors of the training frames.
@@ -197,6 +200,7 @@ impl DescriptorDatabase {
             zone_scores,
             nearest_frame: self.frame_of_row[best_row],
             distance: best,
+            descriptor: q.to_vec(),
         })
     }
 

@@ -291,6 +291,7 @@ mod tests {
             zone_scores,
             nearest_frame: 0,
             distance: 0.2,
+            descriptor: Vec::new(),
         }
     }
 
@@ -310,6 +311,7 @@ mod tests {
             zone_scores: vec![0.5; zones],
             nearest_frame: 0,
             distance: 0.5,
+            descriptor: Vec::new(),
         };
         assert_eq!(f.update(&flat), 7);
         f.anchor(99); // ignored

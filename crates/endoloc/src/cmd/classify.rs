@@ -278,20 +278,11 @@ pub fn run(args: Args) -> Result<()> {
     let bar = crate::ui::progress_bar(n as u64, "classifying");
     let t0 = Instant::now();
     let mut preds: Vec<ZonePrediction> = Vec::with_capacity(n);
-    let mut frame_dist: Vec<Vec<f32>> = Vec::with_capacity(n);
     let frames: Vec<usize> = (0..n).collect();
     for chunk in frames.chunks(64) {
         let imgs: Result<Vec<image::GrayImage>, _> =
             chunk.par_iter().map(|&i| seq.load_gray(i)).collect();
-        let descriptors = clf.describe_batch(&imgs?)?;
-        let looked: Result<Vec<_>, _> = descriptors
-            .par_iter()
-            .map(|q| Ok::<_, endoloc_net::NetError>((clf.lookup(q)?, clf.frame_distances(q)?)))
-            .collect();
-        for (p, d) in looked? {
-            preds.push(p);
-            frame_dist.push(d);
-        }
+        preds.extend(clf.classify_batch(&imgs?)?);
         bar.set_position(preds.len() as u64);
     }
     bar.finish_and_clear();
@@ -300,6 +291,10 @@ pub fn run(args: Args) -> Result<()> {
     let mut f = TemporalFilter::new(clf.zone_count(), temporal);
     let forward: Vec<usize> = preds.iter().map(|p| f.update(p)).collect();
     let offline = viterbi(&preds, clf.zone_count(), &temporal);
+    let frame_dist: Vec<Vec<f32>> = preds
+        .par_iter()
+        .map(|p| clf.frame_distances(&p.descriptor))
+        .collect::<Result<_, _>>()?;
     let zone_of_frame = clf.zones().zone_of_frame.clone();
     let mut tf = TrackFilter::new(zone_of_frame.clone(), track_cfg)?;
     let tracked: Vec<TrackEstimate> = frame_dist

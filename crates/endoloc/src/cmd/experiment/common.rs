@@ -307,6 +307,8 @@ pub(super) enum ZoneChoice {
     Live,
     /// Offline Viterbi over the whole test pass.
     Viterbi,
+    /// Offline forward–backward of the track filter over the whole test pass.
+    Smooth,
 }
 
 /// Runs our method on cached features and predictions: zone → median pose → matching →
@@ -360,6 +362,17 @@ pub(super) fn run_endoloc(
             localizer.classifier().zone_count(),
             &localizer.config().temporal,
         ),
+        ZoneChoice::Smooth => {
+            let clf = localizer.classifier();
+            let distances: Vec<Vec<f32>> = preds
+                .par_iter()
+                .map(|p| clf.frame_distances(&p.descriptor))
+                .collect::<Result<_, _>>()?;
+            endoloc_net::track::smooth(&distances, &clf.zones().zone_of_frame, &clf.config().track)?
+                .iter()
+                .map(|e| e.zone)
+                .collect()
+        }
     };
     let bar = ui::progress_bar(n as u64, "localize");
     let results: Result<Vec<FrameResult>> = (0..n)

@@ -70,6 +70,8 @@ pub enum Method {
     EndolocLive,
     /// Ours with offline Viterbi zone smoothing.
     EndolocViterbi,
+    /// Ours with offline track smoothing (forward–backward over training frames and speed).
+    EndolocSmooth,
     /// PoseNet: absolute pose regression.
     Posenet,
     /// OffsetNet: relative pose from the retrieved reference image.
@@ -99,6 +101,7 @@ impl Method {
             Method::Endoloc => "two-step, up to 3 candidate zones",
             Method::EndolocLive => "two-step, causal HMM zone filter, 3 candidates",
             Method::EndolocViterbi => "two-step, offline Viterbi zones, 3 candidates",
+            Method::EndolocSmooth => "two-step, offline track-smoothed zones, 3 candidates",
             Method::Posenet => "PoseNet pose regression (Kendall et al. 2015)",
             Method::Offsetnet => {
                 "OffsetNet relative pose to the retrieved image (Sganga et al. 2018)"
@@ -227,6 +230,7 @@ impl Ctx<'_> {
             Method::Endoloc => Some(ours(ZoneChoice::PerFrame, 3)),
             Method::EndolocLive => Some(ours(ZoneChoice::Live, 3)),
             Method::EndolocViterbi => Some(ours(ZoneChoice::Viterbi, 3)),
+            Method::EndolocSmooth => Some(ours(ZoneChoice::Smooth, 3)),
             _ => None,
         };
         if let Some((choice, candidates)) = setting {
