@@ -149,7 +149,9 @@ fn every_method_and_experiment_writes_its_outputs() {
     let zones = std::fs::read_to_string(st.root.join("zones.csv")).unwrap();
     let header = zones.lines().next().unwrap();
     assert!(
-        header.contains(",forward_zone,viterbi_zone,track_zone,track_frame,smooth_zone,"),
+        header.contains(
+            ",forward_zone,viterbi_zone,track_zone,track_frame,smooth_zone,smooth_frame,"
+        ),
         "{header}"
     );
     assert!(

@@ -1,7 +1,8 @@
 //! Localizing one test frame: the paper's two steps, with an honest status.
 //!
-//! 1. **Zone**: the Siamese classifier gives the zone (optionally filtered over time by the
-//!    causal HMM filter, as a live scope feed would allow).
+//! 1. **Zone**: the Siamese classifier gives the zone (live, filtered over time by the causal
+//!    track filter over training frames, [`endoloc_net::track`], anchored at each refined
+//!    pose; the zone-level HMM for predictions without a descriptor).
 //! 2. **Initial pose**: the zone's median training pose.
 //! 3. **Registration**: SURF on the frame, matched (ratio test, mutual nearest, Laplacian
 //!    gating) to the map points of the zone and its `neighbour_zones` neighbours on each side.
@@ -18,7 +19,7 @@ use std::time::Instant;
 
 use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
 use endoloc_geometry::{Camera, LocalizeConfig, Pose, Reason, Status, localize_pose};
-use endoloc_net::{TemporalConfig, TemporalFilter, ZoneClassifier, ZonePrediction};
+use endoloc_net::{TemporalConfig, TemporalFilter, TrackFilter, ZoneClassifier, ZonePrediction};
 use nalgebra::{Point2, Point3};
 use serde::{Deserialize, Serialize};
 
@@ -37,7 +38,8 @@ pub struct LocalizerConfig {
     pub neighbour_zones: usize,
     /// Gauss-Newton, RANSAC restart and validity thresholds.
     pub localize: LocalizeConfig,
-    /// Temporal zone filtering for `--live` (causal HMM forward filter).
+    /// Zone-level HMM for `--live` when a prediction carries no descriptor (the track filter,
+    /// with the model's parameters, is used otherwise).
     pub temporal: TemporalConfig,
     /// Zones tried, best classifier score first, until one gives a `refined` pose (beyond the
     /// paper, which trusts the top zone): a misclassified frame usually fails to register in
@@ -518,11 +520,14 @@ impl Localizer {
     }
 }
 
-/// State of a live stream ([`Localizer::localize_live`]): the causal zone filter and the
-/// last refined pose.
+/// State of a live stream ([`Localizer::localize_live`]): the causal zone filter, the track
+/// filter over training frames, and the last refined pose.
 #[derive(Debug, Clone)]
 pub struct LiveState {
     filter: TemporalFilter,
+    /// The track filter ([`endoloc_net::track`]); its zone is used for frames whose prediction
+    /// carries a descriptor, the zone filter's otherwise.
+    track: Option<TrackFilter>,
     /// Last refined pose (`T_wc`, mm) and its frame number.
     last: Option<(Pose, usize)>,
     /// Frames seen so far.
@@ -538,6 +543,9 @@ impl LiveState {
     /// Forgets the past (a new video).
     pub fn reset(&mut self) {
         self.filter.reset();
+        if let Some(t) = &mut self.track {
+            t.reset();
+        }
         self.last = None;
         self.frame = 0;
     }
@@ -548,13 +556,14 @@ impl Localizer {
     pub fn live_state(&self) -> LiveState {
         LiveState {
             filter: self.temporal_filter(),
+            track: self.classifier.track_filter().ok(),
             last: None,
             frame: 0,
         }
     }
 
     /// Localizes the next frame of a live stream (frames in order, one at a time): classify,
-    /// fold the prediction into the causal zone filter, then — when a recent frame was
+    /// fold the prediction into the causal filters (track filter, zone HMM), then — when a recent frame was
     /// `refined` and [`LocalizerConfig::track_frames`] > 0 — register from that pose first;
     /// otherwise (or if that fails) from the filtered zone and the candidate zones.
     ///
@@ -607,7 +616,13 @@ impl Localizer {
     ) -> Result<FrameResult, LocalizeError> {
         let frame = state.frame;
         state.frame += 1;
-        let zone = state.filter.update(pred);
+        let mut zone = state.filter.update(pred);
+        if let Some(track) = &mut state.track
+            && !pred.descriptor.is_empty()
+        {
+            let distances = self.classifier.frame_distances(&pred.descriptor)?;
+            zone = track.update(&distances)?.zone;
+        }
         let seen: &LiveState = state;
         let mut r = self.with_retry(features, retry, times, |f, times| {
             self.live_register(seen, frame, zone, f, pred, times)
@@ -674,6 +689,11 @@ impl Localizer {
             state.last = Some((pose, frame));
             if let Some(z) = self.classifier.truth_zone(&pose) {
                 state.filter.anchor(z);
+            }
+            if let (Some(track), Some(f)) =
+                (&mut state.track, self.classifier.nearest_train_frame(&pose))
+            {
+                track.anchor(f);
             }
         }
     }

@@ -346,6 +346,16 @@ impl ZoneClassifier {
         d.par_iter().map(|q| self.lookup(q)).collect()
     }
 
+    /// The training frame nearest to a pose ([`crate::zones::nearest_frame`], default
+    /// weighting): where the track filter is anchored when a pose is known.
+    pub fn nearest_train_frame(&self, pose: &Pose) -> Option<usize> {
+        crate::zones::nearest_frame(
+            &self.train_poses,
+            pose,
+            crate::zones::TRUTH_ANGLE_WEIGHT_MM_PER_DEG,
+        )
+    }
+
     /// The ground-truth zone of a pose from another pass ([`ZoneTable::truth_zone`] against
     /// the training poses, default weighting).
     pub fn truth_zone(&self, pose: &Pose) -> Option<usize> {

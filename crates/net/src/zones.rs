@@ -389,18 +389,8 @@ impl ZoneTable {
         pose: &Pose,
         angle_weight_mm_per_deg: f64,
     ) -> Option<usize> {
-        let mut best: Option<(f64, usize)> = None;
-        for (i, tp) in train_poses.iter().enumerate() {
-            let d = (tp.translation.vector - pose.translation.vector).norm();
-            if best.is_some_and(|(b, _)| d >= b) {
-                continue;
-            }
-            let cost = d + angle_weight_mm_per_deg * orientation_error_deg(tp, pose);
-            if best.is_none_or(|(b, _)| cost < b) {
-                best = Some((cost, i));
-            }
-        }
-        best.and_then(|(_, i)| self.zone_of_frame.get(i).copied())
+        nearest_frame(train_poses, pose, angle_weight_mm_per_deg)
+            .and_then(|i| self.zone_of_frame.get(i).copied())
     }
 
     /// [`ZoneTable::truth_zone`] for every pose of a sequence (parallel).
@@ -573,6 +563,27 @@ impl ZoneTable {
 
 /// Weight of orientation against position in [`ZoneTable::truth_zone`]: mm per degree.
 pub const TRUTH_ANGLE_WEIGHT_MM_PER_DEG: f64 = 0.1;
+
+/// The training frame nearest to `pose` by `‖Δt‖ (mm) + angle_weight_mm_per_deg · angle (°)`
+/// (see [`ZoneTable::truth_zone`]); `None` without training poses.
+pub fn nearest_frame(
+    train_poses: &[Pose],
+    pose: &Pose,
+    angle_weight_mm_per_deg: f64,
+) -> Option<usize> {
+    let mut best: Option<(f64, usize)> = None;
+    for (i, tp) in train_poses.iter().enumerate() {
+        let d = (tp.translation.vector - pose.translation.vector).norm();
+        if best.is_some_and(|(b, _)| d >= b) {
+            continue;
+        }
+        let cost = d + angle_weight_mm_per_deg * orientation_error_deg(tp, pose);
+        if best.is_none_or(|(b, _)| cost < b) {
+            best = Some((cost, i));
+        }
+    }
+    best.map(|(_, i)| i)
+}
 
 const ZONES_HEADER: &str =
     "zone,first_frame,last_frame,frame_count,path_length_mm,section,tx,ty,tz,qx,qy,qz,qw";

@@ -36,11 +36,11 @@ use crate::cmd::localize::test_frame_surf;
 /// With --verify K (and the model's maps, from `endoloc map`), each frame is also checked
 /// geometrically: its SURF features are registered in its K best zones, best first, and the
 /// frame goes to the zone of the first registered pose (`verified`, per frame); the live
-/// localizer does the same with the forward filter and tracking (`live`). A frame that
-/// registers nowhere keeps its raw (or forward) zone.
+/// localizer does the same with the track filter and tracking (`live`). A frame that
+/// registers nowhere keeps its raw (or tracked) zone.
 ///
 /// Output: a CSV with one row per frame (frame, chosen zone, raw zone, its distance, nearest
-/// training frame, forward and Viterbi zones, track zone and training frame, smoothed zone,
+/// training frame, forward and Viterbi zones, track and smoothed zones and training frames,
 /// truth; then verified and live zones with --verify) to --out or stdout, all zone scores with --scores, and a summary of accuracies
 /// and timing on stderr.
 ///
@@ -152,12 +152,12 @@ fn zone_of(clf: &ZoneClassifier, r: &FrameResult, fallback: usize) -> usize {
 }
 
 /// Registers every frame in its best zones (in parallel), then runs the live localizer over
-/// the sequence in order.
+/// the sequence in order; `causal` holds the track filter's zones, the live fallback.
 fn verify(
     localizer: &Localizer,
     seq: &Sequence,
     preds: &[ZonePrediction],
-    forward: &[usize],
+    causal: &[usize],
 ) -> Result<Verified> {
     let clf = localizer.classifier();
     let n = preds.len();
@@ -177,10 +177,10 @@ fn verify(
     let bar = crate::ui::progress_bar(n as u64, "live");
     let mut state = localizer.live_state();
     let mut live = Vec::with_capacity(n);
-    for (i, &fwd) in forward.iter().enumerate() {
+    for (i, &fallback) in causal.iter().enumerate() {
         let img = seq.load_gray(i)?;
         let r = localizer.localize_live(&mut state, &img)?;
-        live.push(zone_of(clf, &r, fwd));
+        live.push(zone_of(clf, &r, fallback));
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -308,12 +308,15 @@ pub fn run(args: Args) -> Result<()> {
     };
 
     let verified = match &source {
-        Classifier::Verifying(l) => Some(verify(l, &seq, &preds, &forward)?),
+        Classifier::Verifying(l) => {
+            let causal: Vec<usize> = tracked.iter().map(|e| e.zone).collect();
+            Some(verify(l, &seq, &preds, &causal)?)
+        }
         Classifier::Plain(_) => None,
     };
 
     let mut csv = String::from(
-        "frame,zone,raw_zone,distance,nearest_train_frame,forward_zone,viterbi_zone,track_zone,track_frame,smooth_zone,truth_zone",
+        "frame,zone,raw_zone,distance,nearest_train_frame,forward_zone,viterbi_zone,track_zone,track_frame,smooth_zone,smooth_frame,truth_zone",
     );
     csv.push_str(if verified.is_some() {
         ",verified_zone,live_zone\n"
@@ -334,7 +337,7 @@ pub fn run(args: Args) -> Result<()> {
         let t = truth[i];
         let _ = write!(
             csv,
-            "{i},{chosen},{},{:.5},{},{},{},{},{},{},{}",
+            "{i},{chosen},{},{:.5},{},{},{},{},{},{},{},{}",
             preds[i].zone,
             preds[i].distance,
             preds[i].nearest_frame,
@@ -343,6 +346,7 @@ pub fn run(args: Args) -> Result<()> {
             tracked[i].zone,
             tracked[i].frame,
             smoothed[i].zone,
+            smoothed[i].frame,
             t.map_or(String::new(), |t| t.to_string())
         );
         if let Some(v) = &verified {

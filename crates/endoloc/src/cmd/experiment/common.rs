@@ -302,7 +302,7 @@ pub(crate) fn predict_zones(
 pub(super) enum ZoneChoice {
     /// Each frame alone: the classifier's top zone (the paper).
     PerFrame,
-    /// Frames in order (`--live`): causal HMM forward filter, and registration from the last
+    /// Frames in order (`--live`): causal track filter, and registration from the last
     /// refined pose first.
     Live,
     /// Offline Viterbi over the whole test pass.

@@ -66,7 +66,7 @@ pub enum Method {
     EndolocPaper,
     /// Ours, trying the 3 best-scoring zones until one registers.
     Endoloc,
-    /// Ours with the causal HMM zone filter (live).
+    /// Ours live: frames in order, the causal track filter, registration from the last pose.
     EndolocLive,
     /// Ours with offline Viterbi zone smoothing.
     EndolocViterbi,
@@ -99,7 +99,7 @@ impl Method {
         match self {
             Method::EndolocPaper => "two-step, top zone only (the paper's rule)",
             Method::Endoloc => "two-step, up to 3 candidate zones",
-            Method::EndolocLive => "two-step, causal HMM zone filter, 3 candidates",
+            Method::EndolocLive => "two-step, live: causal track filter and tracking, 3 candidates",
             Method::EndolocViterbi => "two-step, offline Viterbi zones, 3 candidates",
             Method::EndolocSmooth => "two-step, offline track-smoothed zones, 3 candidates",
             Method::Posenet => "PoseNet pose regression (Kendall et al. 2015)",
