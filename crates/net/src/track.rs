@@ -639,6 +639,60 @@ mod tests {
         }
     }
 
+    /// Forward–backward with every forward message kept (no checkpoints): the reference for
+    /// [`smooth`].
+    fn smooth_reference(d: &[Vec<f32>], zof: &[usize], cfg: &TrackConfig) -> Vec<TrackEstimate> {
+        let mut f = TrackFilter::new(zof.to_vec(), *cfg).unwrap();
+        let alphas: Vec<Vec<f64>> = d
+            .iter()
+            .map(|x| {
+                f.update(x).unwrap();
+                f.belief.clone()
+            })
+            .collect();
+        let m = f.model.clone();
+        let s = m.states();
+        let mut beta = vec![1.0; s];
+        let mut out = Vec::new();
+        for t in (0..d.len()).rev() {
+            if t + 1 < d.len() {
+                let mut w = beta.clone();
+                m.weigh(&mut w, &emission(&d[t + 1], cfg.temperature));
+                m.back(&w, &mut beta);
+                normalise(&mut beta);
+            }
+            let mut post: Vec<f64> = alphas[t].iter().zip(&beta).map(|(a, b)| a * b).collect();
+            normalise(&mut post);
+            out.push(m.estimate(&post, zof, f.zones));
+        }
+        out.reverse();
+        out
+    }
+
+    #[test]
+    fn checkpointed_smoothing_equals_the_plain_forward_backward() {
+        let n = 40;
+        let zof = zones_of(n, 8);
+        // A noisy pass: the true frame advances by one, every fifth frame looks elsewhere.
+        let d: Vec<Vec<f32>> = (0..37)
+            .map(|t| looks_like(if t % 5 == 3 { (t * 7) % n } else { t }, n))
+            .collect();
+        let cfg = TrackConfig::default();
+        let fast = smooth(&d, &zof, &cfg).unwrap();
+        let slow = smooth_reference(&d, &zof, &cfg);
+        for (t, (a, b)) in fast.iter().zip(&slow).enumerate() {
+            assert_eq!((a.zone, a.frame), (b.zone, b.frame), "frame {t}");
+            assert!(
+                (a.zone_probability - b.zone_probability).abs() < 1e-9,
+                "frame {t}"
+            );
+        }
+        // The last frame has no future: smoothing equals filtering there.
+        let mut f = TrackFilter::new(zof, cfg).unwrap();
+        let last = d.iter().map(|x| f.update(x).unwrap()).last().unwrap();
+        assert_eq!((last.zone, last.frame), (fast[36].zone, fast[36].frame));
+    }
+
     #[test]
     fn wrong_lengths_and_bad_parameters_are_errors() {
         let mut f = TrackFilter::new(zones_of(10, 5), TrackConfig::default()).unwrap();
