@@ -9,7 +9,7 @@ use crate::cmd;
 
 /// Run the whole pipeline on the built-in procedural colon, with no input files: simulate the
 /// `small` dataset, train the Siamese zone classifier, build the per-zone SURF maps, localize
-/// every test frame as a live video (frames in order, causal zone filter, tracking from the
+/// every test frame as a live video (frames in order, causal track filter, tracking from the
 /// last refined pose) and evaluate against the ground truth. Each stage is the same command a
 /// user would run (printed as it starts), so the demo doubles as a tutorial.
 ///
