@@ -428,6 +428,64 @@ fn check_len(distances: &[f32], n: usize) -> Result<(), crate::NetError> {
     }
 }
 
+/// Fixed-lag smoothing: the estimate of test frame `t` given frames up to `t + lag` (the last
+/// `lag` frames of the video get what follows them). `lag = 0` is the forward filter; a lag
+/// as long as the video is [`smooth`]. Live, this is the estimate `lag` frames late.
+///
+/// Work: `lag` backward steps per frame; memory `lag + 1` forward messages.
+///
+/// # Errors
+/// As [`TrackFilter::new`] and [`TrackFilter::update`].
+pub fn fixed_lag(
+    distances: &[Vec<f32>],
+    zone_of_frame: &[usize],
+    cfg: &TrackConfig,
+    lag: usize,
+) -> Result<Vec<TrackEstimate>, crate::NetError> {
+    let n = zone_of_frame.len();
+    for d in distances {
+        check_len(d, n)?;
+    }
+    let mut filter = TrackFilter::new(zone_of_frame.to_vec(), *cfg)?;
+    let t_len = distances.len();
+    let emit = |t: usize| emission(&distances[t], cfg.temperature);
+    let mut alphas: std::collections::VecDeque<Vec<f64>> =
+        std::collections::VecDeque::with_capacity(lag + 1);
+    let mut out = Vec::with_capacity(t_len);
+    let model = filter.model.clone();
+    let zones = filter.zones;
+    let s = model.states();
+    // The estimate of frame `target` from the forward message kept for it and the frames
+    // after it up to `last`.
+    let estimate_at = |alpha: &[f64], target: usize, last: usize| {
+        let mut beta = vec![1.0 / s as f64; s];
+        let mut weighted = vec![0.0; s];
+        for t in (target..last).rev() {
+            weighted.copy_from_slice(&beta);
+            model.weigh(&mut weighted, &emit(t + 1));
+            model.back(&weighted, &mut beta);
+            normalise(&mut beta);
+        }
+        let mut post: Vec<f64> = alpha.iter().zip(&beta).map(|(a, b)| a * b).collect();
+        normalise(&mut post);
+        model.estimate(&post, zone_of_frame, zones)
+    };
+    for t in 0..t_len {
+        filter.step(&emit(t));
+        alphas.push_back(filter.belief.clone());
+        if alphas.len() > lag {
+            let alpha = alphas.pop_front().unwrap_or_default();
+            out.push(estimate_at(&alpha, t - lag, t));
+        }
+    }
+    // The last frames: what follows them is all there is.
+    let first = out.len();
+    for (k, alpha) in alphas.iter().enumerate() {
+        out.push(estimate_at(alpha, first + k, t_len - 1));
+    }
+    Ok(out)
+}
+
 /// Offline forward–backward over a whole video: the estimate of every test frame given all
 /// of them. `distances[t]` holds test frame `t`'s distance to every training frame.
 ///
@@ -691,6 +749,33 @@ mod tests {
         let mut f = TrackFilter::new(zof, cfg).unwrap();
         let last = d.iter().map(|x| f.update(x).unwrap()).last().unwrap();
         assert_eq!((last.zone, last.frame), (fast[36].zone, fast[36].frame));
+    }
+
+    #[test]
+    fn fixed_lag_spans_filtering_and_smoothing() {
+        let n = 40;
+        let zof = zones_of(n, 8);
+        let d: Vec<Vec<f32>> = (0..30)
+            .map(|t| looks_like(if t % 5 == 3 { (t * 7) % n } else { t }, n))
+            .collect();
+        let cfg = TrackConfig::default();
+        let key = |e: &TrackEstimate| (e.zone, e.frame);
+        let mut f = TrackFilter::new(zof.clone(), cfg).unwrap();
+        let forward: Vec<_> = d.iter().map(|x| key(&f.update(x).unwrap())).collect();
+        let lag0: Vec<_> = fixed_lag(&d, &zof, &cfg, 0)
+            .unwrap()
+            .iter()
+            .map(key)
+            .collect();
+        assert_eq!(lag0, forward);
+        let full: Vec<_> = smooth(&d, &zof, &cfg).unwrap().iter().map(key).collect();
+        let long: Vec<_> = fixed_lag(&d, &zof, &cfg, 30)
+            .unwrap()
+            .iter()
+            .map(key)
+            .collect();
+        assert_eq!(long, full);
+        assert_eq!(fixed_lag(&d, &zof, &cfg, 5).unwrap().len(), d.len());
     }
 
     #[test]

@@ -9,7 +9,7 @@ use endoloc_data::{Dataset, Sequence};
 use endoloc_geometry::Status;
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{FrameResult, Localizer, LocalizerConfig};
-use endoloc_net::track::smooth;
+use endoloc_net::track::{fixed_lag, smooth};
 use endoloc_net::{
     TemporalFilter, TrackConfig, TrackEstimate, TrackFilter, ZoneClassifier, ZonePrediction,
     viterbi,
@@ -106,6 +106,11 @@ pub struct Args {
     /// Track filter: probability per frame of the speed changing by one.
     #[arg(long)]
     track_speed_change: Option<f64>,
+
+    /// Track filter: report each frame's zone given the next L frames too (fixed-lag
+    /// smoothing; live, the zone L frames late). 0 = causal.
+    #[arg(long, value_name = "L", default_value_t = 0)]
+    track_lag: usize,
 
     /// Track filter: jump probability per frame.
     #[arg(long)]
@@ -296,11 +301,15 @@ pub fn run(args: Args) -> Result<()> {
         .map(|p| clf.frame_distances(&p.descriptor))
         .collect::<Result<_, _>>()?;
     let zone_of_frame = clf.zones().zone_of_frame.clone();
-    let mut tf = TrackFilter::new(zone_of_frame.clone(), track_cfg)?;
-    let tracked: Vec<TrackEstimate> = frame_dist
-        .iter()
-        .map(|d| tf.update(d))
-        .collect::<Result<_, _>>()?;
+    let tracked: Vec<TrackEstimate> = if args.track_lag == 0 {
+        let mut tf = TrackFilter::new(zone_of_frame.clone(), track_cfg)?;
+        frame_dist
+            .iter()
+            .map(|d| tf.update(d))
+            .collect::<Result<_, _>>()?
+    } else {
+        fixed_lag(&frame_dist, &zone_of_frame, &track_cfg, args.track_lag)?
+    };
     let smoothed = smooth(&frame_dist, &zone_of_frame, &track_cfg)?;
     let truth: Vec<Option<usize>> = {
         let poses: Vec<_> = seq.poses[..n].iter().map(|p| p.pose).collect();
