@@ -556,6 +556,8 @@ impl Localizer {
     pub fn live_state(&self) -> LiveState {
         LiveState {
             filter: self.temporal_filter(),
+            // Parameters were validated when the model was loaded; a model without training
+            // frames has no track and keeps the zone HMM.
             track: self.classifier.track_filter().ok(),
             last: None,
             frame: 0,
@@ -563,9 +565,10 @@ impl Localizer {
     }
 
     /// Localizes the next frame of a live stream (frames in order, one at a time): classify,
-    /// fold the prediction into the causal filters (track filter, zone HMM), then — when a recent frame was
-    /// `refined` and [`LocalizerConfig::track_frames`] > 0 — register from that pose first;
-    /// otherwise (or if that fails) from the filtered zone and the candidate zones.
+    /// fold the prediction into the causal filters (track filter, zone HMM), then — when a
+    /// recent frame was `refined` and [`LocalizerConfig::track_frames`] > 0 — register from
+    /// that pose first; otherwise (or if that fails) from the filtered zone and the candidate
+    /// zones.
     ///
     /// # Errors
     /// As [`Localizer::localize`].

@@ -97,6 +97,10 @@ impl ModelConfig {
                 ),
             ));
         }
+        // Filter parameters a user may have edited: refused here, not at the first frame.
+        for check in [cfg.temporal.validate(), cfg.track.validate()] {
+            check.map_err(|e| NetError::parse(&path, 0, e.to_string()))?;
+        }
         Ok(cfg)
     }
 

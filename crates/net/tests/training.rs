@@ -341,6 +341,15 @@ fn extra_passes_join_the_training_pairs_but_not_the_database_and_bad_passes_are_
     assert_eq!(clf.train_poses().len(), seq.len());
     let saved = std::fs::read_to_string(dir.join("model.toml")).unwrap();
     assert!(saved.contains("pass2"), "{saved}");
+    // Filter parameters edited into model.toml are checked when the model loads.
+    let bad = saved.replace("temperature = 0.3\n", "temperature = -1.0\n");
+    assert_ne!(bad, saved, "the track section is written: {saved}");
+    std::fs::write(dir.join("model.toml"), bad).unwrap();
+    let e = ZoneClassifier::load(&dir).unwrap_err().to_string();
+    assert!(
+        e.contains("model.toml") && e.contains("track: temperature"),
+        "{e}"
+    );
 
     // A pass taken with another camera size is refused, naming its first image.
     let small = tmp.path().join("small");
