@@ -40,6 +40,7 @@ pub use classifier::ZoneClassifier;
 pub use database::{DescriptorDatabase, ScoreRule, ZonePrediction};
 pub use error::NetError;
 pub use model::ModelConfig;
+pub use pairs::PairRule;
 pub use preprocess::InputSize;
 pub use temporal::{TemporalConfig, TemporalFilter, viterbi};
 pub use track::{TrackConfig, TrackEstimate, TrackFilter};

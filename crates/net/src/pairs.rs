@@ -13,10 +13,156 @@
 //!   `(f₀, g₀), (f₁, g₁), …` whose zones are neighbours with probability
 //!   `hard_negative_fraction`, and the negatives are `(g_k, f_{k+1})`: as many pairs from half
 //!   as many images, so each image's forward and backward pass serves two pairs.
+//!
+//! Two rules ([`PairRule`]): the paper's **zone** pairs above, and **track** pairs drawn by
+//! distance along the training pass instead of by zone ([`PairSampler::along_track`]).
 
 use crate::NetError;
 use rand::Rng;
 use rand::seq::IndexedRandom;
+use serde::{Deserialize, Serialize};
+
+/// Which pairs the training draws (`[pairs]` of a training config, `endoloc train --pairs`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(tag = "rule", rename_all = "snake_case")]
+pub enum PairRule {
+    /// The paper: a positive pair is two frames of one zone, a negative pair two frames of
+    /// different zones.
+    #[default]
+    Zone,
+    /// Along the training pass, blind to zone borders: a positive pair is two frames at most
+    /// `positive_frames` apart in the (ordered) training sequence, a negative pair two frames
+    /// at least `negative_frames` apart, and a fraction `near_fraction` of the negatives lie
+    /// at most `2 · negative_frames` apart. Frames in between are never paired, so two
+    /// near-identical views never get opposite labels — which zone pairs do to every pair of
+    /// neighbours across a zone border. The descriptor learns to place a frame along the
+    /// pass, not only in its zone.
+    Track {
+        /// Largest frame gap of a positive pair (≥ 1).
+        positive_frames: usize,
+        /// Smallest frame gap of a negative pair (> `positive_frames`).
+        negative_frames: usize,
+        /// Fraction of negatives drawn from `negative_frames ..= 2 · negative_frames` frames
+        /// away, in `[0, 1]`; the rest anywhere at least `negative_frames` away.
+        near_fraction: f32,
+    },
+}
+
+impl PairRule {
+    /// Track pairs with the defaults measured on the simulator's `paper` preset: positives
+    /// within 3 frames, negatives 10 or more frames apart, half of them within 20.
+    pub fn track() -> Self {
+        PairRule::Track {
+            positive_frames: 3,
+            negative_frames: 10,
+            near_fraction: 0.5,
+        }
+    }
+
+    /// Checks the values.
+    ///
+    /// # Errors
+    /// [`NetError::Config`] naming the bad value.
+    pub fn validate(&self) -> Result<(), NetError> {
+        if let PairRule::Track {
+            positive_frames,
+            negative_frames,
+            near_fraction,
+        } = *self
+        {
+            if positive_frames == 0 || negative_frames <= positive_frames {
+                return Err(NetError::Config(format!(
+                    "pairs: positive_frames {positive_frames} ≥ 1 and negative_frames {negative_frames} > positive_frames expected"
+                )));
+            }
+            if !(0.0..=1.0).contains(&near_fraction) {
+                return Err(NetError::Config(format!(
+                    "pairs: near_fraction {near_fraction} must be in [0, 1]"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Track-pair state of a [`PairSampler`].
+#[derive(Debug, Clone)]
+struct TrackPairs {
+    /// Usable frames, ascending.
+    frames: Vec<usize>,
+    positive: usize,
+    negative: usize,
+    near: f64,
+}
+
+impl TrackPairs {
+    /// Usable frames within `lo..=hi` (indices into `frames`).
+    fn range(&self, lo: usize, hi: usize) -> std::ops::Range<usize> {
+        let a = self.frames.partition_point(|&f| f < lo);
+        let b = self.frames.partition_point(|&f| f <= hi);
+        a..b.max(a)
+    }
+
+    fn any<R: Rng>(&self, rng: &mut R) -> usize {
+        self.frames[rng.random_range(0..self.frames.len())]
+    }
+
+    /// A frame other than `f` at most `positive` frames from it (the nearest usable frame
+    /// when none is that close).
+    fn positive_of<R: Rng>(&self, f: usize, rng: &mut R) -> usize {
+        let r = self.range(f.saturating_sub(self.positive), f + self.positive);
+        let near: Vec<usize> = self.frames[r].iter().copied().filter(|&g| g != f).collect();
+        if let Some(&g) = near.choose(rng) {
+            return g;
+        }
+        let lo = self.frames.partition_point(|&g| g < f);
+        let hi = self.frames.partition_point(|&g| g <= f);
+        let before = lo.checked_sub(1).map(|j| self.frames[j]);
+        let after = self.frames.get(hi).copied();
+        match (before, after) {
+            (Some(b), Some(a)) if f - b <= a - f => b,
+            (_, Some(a)) => a,
+            (Some(b), None) => b,
+            (None, None) => f,
+        }
+    }
+
+    /// A frame at least `negative` frames from `f` (within `2 · negative` with probability
+    /// `near`). The constructor ensures one exists.
+    fn negative_of<R: Rng>(&self, f: usize, rng: &mut R) -> usize {
+        let n = self.negative;
+        if rng.random_bool(self.near) {
+            let below = if f >= n {
+                self.range(f.saturating_sub(2 * n), f - n)
+            } else {
+                0..0
+            };
+            let above = self.range(f + n, f + 2 * n);
+            let count = below.len() + above.len();
+            if count > 0 {
+                let k = rng.random_range(0..count);
+                return if k < below.len() {
+                    self.frames[below.start + k]
+                } else {
+                    self.frames[above.start + k - below.len()]
+                };
+            }
+        }
+        // Anywhere at least `n` away: the usable frames below f − n and above f + n.
+        let below = if f >= n { self.range(0, f - n) } else { 0..0 };
+        let above = self.range(f + n, usize::MAX - 1);
+        let count = below.len() + above.len();
+        if count == 0 {
+            return f;
+        }
+        let k = rng.random_range(0..count);
+        if k < below.len() {
+            self.frames[below.start + k]
+        } else {
+            self.frames[above.start + k - below.len()]
+        }
+    }
+}
 
 /// One batch of pairs: the images to run through the network and the pairs among them.
 #[derive(Debug, Clone, PartialEq)]
@@ -42,6 +188,8 @@ pub struct PairSampler {
     any_zones: Vec<usize>,
     hard_fraction: f64,
     hard_reach: usize,
+    /// Set for [`PairRule::Track`]: pairs by frame distance instead of zones.
+    track: Option<TrackPairs>,
 }
 
 impl PairSampler {
@@ -77,6 +225,53 @@ impl PairSampler {
             any_zones,
             hard_fraction: hard_negative_fraction.clamp(0.0, 1.0) as f64,
             hard_reach: hard_negative_reach.max(1),
+            track: None,
+        })
+    }
+
+    /// A sampler of [`PairRule::Track`] pairs over the usable `frames` of one ordered pass
+    /// (frame index = position along the pass); zone pairs come from [`PairSampler::new`].
+    ///
+    /// # Errors
+    /// [`NetError::Config`] for a rule other than `Track` or bad values;
+    /// [`NetError::Zoning`] when the usable frames span fewer than `2 · negative_frames`
+    /// frames (some frame would have no negative partner).
+    pub fn along_track(mut frames: Vec<usize>, rule: PairRule) -> Result<Self, NetError> {
+        rule.validate()?;
+        let PairRule::Track {
+            positive_frames,
+            negative_frames,
+            near_fraction,
+        } = rule
+        else {
+            return Err(NetError::Config(
+                "PairSampler::along_track takes a track pair rule".into(),
+            ));
+        };
+        frames.sort_unstable();
+        frames.dedup();
+        let span = match (frames.first(), frames.last()) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0,
+        };
+        if span < 2 * negative_frames {
+            return Err(NetError::Zoning(format!(
+                "track pairs need a pass spanning at least 2 × negative_frames = {} frames; the usable frames span {span}",
+                2 * negative_frames
+            )));
+        }
+        Ok(PairSampler {
+            zone_frames: Vec::new(),
+            pos_zones: Vec::new(),
+            any_zones: Vec::new(),
+            hard_fraction: 0.0,
+            hard_reach: 1,
+            track: Some(TrackPairs {
+                frames,
+                positive: positive_frames,
+                negative: negative_frames,
+                near: near_fraction as f64,
+            }),
         })
     }
 
@@ -126,6 +321,10 @@ impl PairSampler {
             b: Vec::with_capacity(pairs),
             dissimilar: Vec::with_capacity(pairs),
         };
+        if let Some(t) = &self.track {
+            track_batch(t, n_pos, n_neg, shared, rng, &mut out);
+            return out;
+        }
         if shared && self.pos_zones.len() >= 2 {
             // Chain of positive pairs whose consecutive zones differ.
             let mut zones = Vec::with_capacity(n_pos.max(n_neg + 1));
@@ -171,6 +370,54 @@ impl PairSampler {
             }
         }
         out
+    }
+}
+
+/// [`PairSampler::batch`] for track pairs; the same two layouts as zone pairs.
+fn track_batch<R: Rng>(
+    t: &TrackPairs,
+    n_pos: usize,
+    n_neg: usize,
+    shared: bool,
+    rng: &mut R,
+    out: &mut PairBatch,
+) {
+    if shared {
+        // Chain f₀ g₀ f₁ g₁ …: (f_k, g_k) positive, (g_k, f_{k+1}) negative.
+        let chain = n_pos.max(n_neg + 1);
+        let mut f = t.any(rng);
+        for k in 0..chain {
+            let g = t.positive_of(f, rng);
+            out.images.push(f);
+            out.images.push(g);
+            if k < n_pos {
+                out.a.push(2 * k);
+                out.b.push(2 * k + 1);
+                out.dissimilar.push(0.0);
+            }
+            f = t.negative_of(g, rng);
+        }
+        for k in 0..n_neg {
+            out.a.push(2 * k + 1);
+            out.b.push(2 * (k + 1));
+            out.dissimilar.push(1.0);
+        }
+    } else {
+        for (count, label) in [(n_pos, 0.0), (n_neg, 1.0)] {
+            for _ in 0..count {
+                let f = t.any(rng);
+                let g = if label == 0.0 {
+                    t.positive_of(f, rng)
+                } else {
+                    t.negative_of(f, rng)
+                };
+                out.a.push(out.images.len());
+                out.images.push(f);
+                out.b.push(out.images.len());
+                out.images.push(g);
+                out.dissimilar.push(label);
+            }
+        }
     }
 }
 
@@ -229,5 +476,89 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("at least 2 frames"), "{err}");
+    }
+
+    #[test]
+    fn track_pairs_respect_the_frame_gaps_and_skip_held_frames() {
+        // Every fifth frame held out, as validation does.
+        let frames: Vec<usize> = (0..300).filter(|f| f % 5 != 2).collect();
+        let rule = PairRule::Track {
+            positive_frames: 3,
+            negative_frames: 10,
+            near_fraction: 0.5,
+        };
+        let s = PairSampler::along_track(frames.clone(), rule).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for shared in [false, true] {
+            let (mut neg, mut near) = (0, 0);
+            for _ in 0..40 {
+                let b = s.batch(64, shared, &mut rng);
+                assert_eq!(b.a.len(), 64);
+                assert_eq!(b.dissimilar.iter().filter(|&&d| d == 0.0).count(), 32);
+                assert!(
+                    b.images.iter().all(|f| frames.contains(f)),
+                    "held frame used"
+                );
+                for k in 0..64 {
+                    let gap = b.images[b.a[k]].abs_diff(b.images[b.b[k]]);
+                    if b.dissimilar[k] == 0.0 {
+                        assert!((1..=3).contains(&gap), "positive gap {gap}");
+                    } else {
+                        assert!(gap >= 10, "negative gap {gap}");
+                        neg += 1;
+                        if gap <= 20 {
+                            near += 1;
+                        }
+                    }
+                }
+            }
+            // Half near by construction, plus the few uniform draws that land within 20.
+            let frac = near as f64 / neg as f64;
+            assert!(frac > 0.45 && frac < 0.62, "near fraction {frac}");
+        }
+    }
+
+    #[test]
+    fn track_pairs_refuse_short_passes_and_bad_gaps() {
+        let rule = PairRule::track();
+        let err = PairSampler::along_track((0..15).collect(), rule)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("at least 2 × negative_frames = 20"), "{err}");
+        let bad = PairRule::Track {
+            positive_frames: 5,
+            negative_frames: 5,
+            near_fraction: 0.5,
+        };
+        let err = PairSampler::along_track((0..100).collect(), bad)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("negative_frames 5 > positive_frames"), "{err}");
+        let err = PairSampler::along_track((0..100).collect(), PairRule::Zone)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("track pair rule"), "{err}");
+    }
+
+    #[test]
+    fn pair_rule_reads_from_toml() {
+        #[derive(Deserialize)]
+        struct W {
+            pairs: PairRule,
+        }
+        let w: W = toml::from_str(
+            "[pairs]\nrule = \"track\"\npositive_frames = 2\nnegative_frames = 8\nnear_fraction = 0.25\n",
+        )
+        .unwrap();
+        assert_eq!(
+            w.pairs,
+            PairRule::Track {
+                positive_frames: 2,
+                negative_frames: 8,
+                near_fraction: 0.25
+            }
+        );
+        let w: W = toml::from_str("[pairs]\nrule = \"zone\"\n").unwrap();
+        assert_eq!(w.pairs, PairRule::Zone);
     }
 }

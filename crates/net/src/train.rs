@@ -16,7 +16,7 @@ use crate::backbone::{BackboneConfig, EmbeddingNet};
 use crate::database::{DescriptorDatabase, ScoreRule};
 use crate::loss::{DEFAULT_MARGIN, contrastive_loss};
 use crate::model::{self, ModelConfig};
-use crate::pairs::{PairBatch, PairSampler};
+use crate::pairs::{PairBatch, PairRule, PairSampler};
 use crate::preprocess::{InputSize, resize_area, standardize};
 use crate::regress::view::ViewIntrinsics;
 use crate::temporal::TemporalConfig;
@@ -171,6 +171,9 @@ pub struct TrainConfig {
     pub hard_negative_fraction: f32,
     /// "Nearby" for hard negatives: at most this many zones apart.
     pub hard_negative_reach: usize,
+    /// Which pairs to draw: the paper's zone pairs (default) or pairs by distance along the
+    /// training pass ([`PairRule::Track`]; the hard-negative settings then do not apply).
+    pub pairs: PairRule,
     /// Augmentation.
     pub augment: AugmentConfig,
     /// Seed of every random step (weights, pairs, augmentation).
@@ -204,6 +207,7 @@ impl Default for TrainConfig {
             margin: DEFAULT_MARGIN,
             hard_negative_fraction: 0.0,
             hard_negative_reach: 2,
+            pairs: PairRule::Zone,
             augment: AugmentConfig::default(),
             seed: 0,
             validation: ValidationConfig::default(),
@@ -243,6 +247,12 @@ impl TrainConfig {
         if self.inference_batch == 0 {
             return Err(NetError::Config(
                 "inference_batch must be at least 1".into(),
+            ));
+        }
+        self.pairs.validate()?;
+        if matches!(self.pairs, PairRule::Track { .. }) && !self.extra_sequences.is_empty() {
+            return Err(NetError::Config(
+                "track pairs rank frames along the one training pass; they do not take extra passes (drop --also-seq or use zone pairs)".into(),
             ));
         }
         if !(0.0..=45.0).contains(&self.augment.tilt_deg) {
@@ -577,11 +587,16 @@ pub fn fit(
             zone_frames[zones.zone_of_frame[f]].push(f);
         }
     }
-    let sampler = PairSampler::new(
-        zone_frames,
-        cfg.hard_negative_fraction,
-        cfg.hard_negative_reach,
-    )?;
+    let sampler = match cfg.pairs {
+        PairRule::Zone => PairSampler::new(
+            zone_frames,
+            cfg.hard_negative_fraction,
+            cfg.hard_negative_reach,
+        )?,
+        rule @ PairRule::Track { .. } => {
+            PairSampler::along_track((0..n).filter(|&f| !is_held(f)).collect(), rule)?
+        }
+    };
     // Validation queries: (image cache, frames in it, truth zones).
     let held: Vec<usize> = (0..n).filter(|&f| is_held(f)).collect();
     let held_truth: Vec<usize> = held.iter().map(|&f| zones.zone_of_frame[f]).collect();

@@ -9,7 +9,7 @@ use endoloc_data::Dataset;
 use crate::cmd::baselines::{Regressor, train_regressor};
 use endoloc_net::backbone::{BackboneConfig, Pooling};
 use endoloc_net::train::{Phase, Schedule, TrainConfig, TrainTarget, train};
-use endoloc_net::{AugmentConfig, UniformBy, ZoneConfig, ZoneTable};
+use endoloc_net::{AugmentConfig, PairRule, UniformBy, ZoneConfig, ZoneTable};
 
 /// Train the zone classifier (a Siamese network with the paper's contrastive loss) on the
 /// training sequence of a dataset and write a model folder: model.toml, weights.safetensors,
@@ -106,6 +106,21 @@ pub struct Args {
     #[arg(long, value_name = "DEG")]
     tilt_deg: Option<f32>,
 
+    /// Training pairs: `zone` (the paper's: positives share a zone, negatives do not) or
+    /// `track` (by distance along the training pass: positives within 3 frames, negatives 10
+    /// or more apart, half of them within 20; see --pair-frames). Track pairs never give
+    /// opposite labels to neighbouring frames across a zone border.
+    #[arg(long, value_name = "RULE")]
+    pairs: Option<String>,
+
+    /// Track pairs: largest positive and smallest negative frame gap, `P,N` (default 3,10).
+    #[arg(long, value_name = "P,N")]
+    pair_frames: Option<String>,
+
+    /// Track pairs: fraction of negatives within 2·N frames (default 0.5).
+    #[arg(long, value_name = "F")]
+    near_fraction: Option<f32>,
+
     /// Schedule preset: `fast` or `paper`.
     #[arg(long, default_value = "fast")]
     schedule: String,
@@ -176,6 +191,47 @@ fn zone_config(spec: &str, by: &str) -> Result<ZoneConfig> {
     })
 }
 
+/// `--pairs`, `--pair-frames`, `--near-fraction` applied to `rule` (from the config or the
+/// default).
+fn pair_rule(args: &Args, rule: PairRule) -> Result<PairRule> {
+    let mut rule = match args.pairs.as_deref().map(|s| s.trim().to_ascii_lowercase()) {
+        None => rule,
+        Some(s) if s == "zone" => PairRule::Zone,
+        Some(s) if s == "track" => match rule {
+            PairRule::Track { .. } => rule,
+            PairRule::Zone => PairRule::track(),
+        },
+        Some(other) => bail!("--pairs {other}: expected `zone` or `track`"),
+    };
+    let tuning = args.pair_frames.is_some() || args.near_fraction.is_some();
+    match &mut rule {
+        PairRule::Track {
+            positive_frames,
+            negative_frames,
+            near_fraction,
+        } => {
+            if let Some(spec) = &args.pair_frames {
+                let parsed = spec
+                    .split_once(',')
+                    .and_then(|(p, n)| Some((p.trim().parse().ok()?, n.trim().parse().ok()?)));
+                let Some((p, n)) = parsed else {
+                    bail!("--pair-frames {spec}: expected P,N (two frame counts, e.g. 3,10)");
+                };
+                (*positive_frames, *negative_frames) = (p, n);
+            }
+            if let Some(f) = args.near_fraction {
+                *near_fraction = f;
+            }
+        }
+        PairRule::Zone if tuning => {
+            bail!("--pair-frames and --near-fraction apply to track pairs (--pairs track)")
+        }
+        PairRule::Zone => {}
+    }
+    rule.validate()?;
+    Ok(rule)
+}
+
 /// Turns the arguments into a training config.
 fn train_config(args: &Args) -> Result<TrainConfig> {
     let mut cfg = match &args.config {
@@ -235,6 +291,7 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
     if args.no_augment {
         cfg.augment = AugmentConfig::off();
     }
+    cfg.pairs = pair_rule(args, cfg.pairs)?;
     cfg.seed = args.seed;
     cfg.device = args.device.clone();
     if args.val_seq.is_some() {
@@ -443,5 +500,43 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("compact backbone"), "{e}");
+    }
+
+    #[test]
+    fn pair_flags_reach_the_config_and_bad_values_are_named() {
+        assert_eq!(config(&[]).unwrap().pairs, PairRule::Zone);
+        assert_eq!(
+            config(&["--pairs", "track"]).unwrap().pairs,
+            PairRule::track()
+        );
+        assert_eq!(
+            config(&[
+                "--pairs",
+                "track",
+                "--pair-frames",
+                "2,8",
+                "--near-fraction",
+                "0.3"
+            ])
+            .unwrap()
+            .pairs,
+            PairRule::Track {
+                positive_frames: 2,
+                negative_frames: 8,
+                near_fraction: 0.3
+            }
+        );
+        let e = config(&["--pairs", "frames"]).unwrap_err().to_string();
+        assert!(e.contains("--pairs frames"), "{e}");
+        let e = config(&["--pair-frames", "2,8"]).unwrap_err().to_string();
+        assert!(e.contains("--pairs track"), "{e}");
+        let e = config(&["--pairs", "track", "--pair-frames", "8"])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--pair-frames 8"), "{e}");
+        let e = config(&["--pairs", "track", "--pair-frames", "8,4"])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("negative_frames 4 > positive_frames"), "{e}");
     }
 }
