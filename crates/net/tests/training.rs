@@ -7,7 +7,7 @@ use endoloc_net::train::{
     ImageCache, Schedule, TrainConfig, TrainReport, TrainTarget, ValidationConfig, fit, train,
 };
 use endoloc_net::{
-    AugmentConfig, InputSize, NetError, UniformBy, ZoneClassifier, ZoneConfig, ZoneTable,
+    AugmentConfig, InputSize, NetError, PairRule, UniformBy, ZoneClassifier, ZoneConfig, ZoneTable,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
@@ -375,5 +375,91 @@ fn extra_passes_join_the_training_pairs_but_not_the_database_and_bad_passes_are_
     assert!(
         e.contains("000000.png") && e.contains("32x24") && e.contains("64x48"),
         "{e}"
+    );
+}
+
+/// A pass whose look turns smoothly with the frame index (stripes at angle `i · π / n`,
+/// random phase and noise): neighbours look alike, and only the angle places a frame.
+fn write_smooth_sequence(dir: &Path, seed: u64) -> Sequence {
+    let n = ZONES * PER_ZONE;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    std::fs::create_dir_all(dir.join("images")).unwrap();
+    let mut poses = Vec::new();
+    for i in 0..n {
+        let angle = i as f32 * std::f32::consts::PI / n as f32;
+        let phase: f32 = rng.random_range(0.0..std::f32::consts::TAU);
+        let (s, c) = angle.sin_cos();
+        let img = image::GrayImage::from_fn(W, H, |x, y| {
+            let v = ((x as f32 * c + y as f32 * s) * 0.3 + phase).sin();
+            let noise: f32 = rng.random_range(-0.2..0.2);
+            image::Luma([((v + noise) * 100.0 + 128.0).clamp(0.0, 255.0) as u8])
+        });
+        img.save(dir.join("images").join(format!("{i:06}.png")))
+            .unwrap();
+        poses.push(StampedPose {
+            timestamp_s: i as f64 / 30.0,
+            pose: pose_from_parts(Vector3::new(i as f64, 0.0, 0.0), UnitQuaternion::identity()),
+        });
+    }
+    endoloc_data::write_tum(&dir.join("poses.txt"), &poses).unwrap();
+    Sequence::open(dir).unwrap()
+}
+
+/// Mean |nearest training frame − frame| over the frames of `query`.
+fn mean_frame_error(clf: &ZoneClassifier, query: &Sequence) -> f64 {
+    let errors: Vec<usize> = (0..query.len())
+        .map(|i| {
+            let d = clf
+                .frame_distances(&clf.describe(&query.load_gray(i).unwrap()).unwrap())
+                .unwrap();
+            let nearest = (0..d.len()).min_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap();
+            nearest.abs_diff(i)
+        })
+        .collect();
+    errors.iter().sum::<usize>() as f64 / errors.len() as f64
+}
+
+#[test]
+fn track_pairs_place_a_frame_along_the_pass_more_finely_than_zone_pairs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = write_smooth_sequence(&tmp.path().join("train"), 8);
+    let query = write_smooth_sequence(&tmp.path().join("query"), 9);
+    let zones = zones_of(&seq);
+    let mut errors = Vec::new();
+    for (name, pairs) in [
+        ("zone", PairRule::Zone),
+        (
+            "track",
+            PairRule::Track {
+                positive_frames: 1,
+                negative_frames: 4,
+                near_fraction: 0.5,
+            },
+        ),
+    ] {
+        let cfg = TrainConfig {
+            pairs,
+            ..tiny_config(30)
+        };
+        let dir = tmp.path().join(name);
+        train_into(&dir, &cfg, &seq, &zones).unwrap();
+        let clf = ZoneClassifier::load(&dir).unwrap();
+        errors.push(mean_frame_error(&clf, &query));
+    }
+    eprintln!(
+        "mean frame error: zone pairs {}, track pairs {}",
+        errors[0], errors[1]
+    );
+    // Measured: zone pairs 0.48 frames, track pairs 0.02.
+    assert!(
+        errors[1] <= 0.25,
+        "track pairs: mean frame error {}",
+        errors[1]
+    );
+    assert!(
+        errors[1] < 0.5 * errors[0],
+        "zone pairs {} vs track pairs {}",
+        errors[0],
+        errors[1]
     );
 }
