@@ -30,9 +30,11 @@ pub enum PairRule {
     /// different zones.
     #[default]
     Zone,
-    /// Along the training pass, blind to zone borders: a positive pair is two frames at most
-    /// `positive_frames` apart in the (ordered) training sequence, a negative pair two frames
-    /// at least `negative_frames` apart, and a fraction `near_fraction` of the negatives lie
+    /// Along the training pass, blind to zone borders: a positive pair is two images at most
+    /// `positive_frames` apart along the (ordered) training sequence — a frame of a further
+    /// pass counts at the place of its nearest training pose, so positives also join views
+    /// of one place from different passes — a negative pair two images at least
+    /// `negative_frames` apart, and a fraction `near_fraction` of the negatives lie
     /// at most `2 · negative_frames` apart. Frames in between are never paired, so two
     /// near-identical views never get opposite labels — which zone pairs do to every pair of
     /// neighbours across a zone border. The descriptor learns to place a frame along the
@@ -88,72 +90,72 @@ impl PairRule {
 /// Track-pair state of a [`PairSampler`].
 #[derive(Debug, Clone)]
 struct TrackPairs {
-    /// Usable frames, ascending.
-    frames: Vec<usize>,
+    /// Usable images as (place along the pass, image), ascending.
+    frames: Vec<(usize, usize)>,
     positive: usize,
     negative: usize,
     near: f64,
 }
 
 impl TrackPairs {
-    /// Usable frames within `lo..=hi` (indices into `frames`).
+    /// Usable images whose place is within `lo..=hi` (indices into `frames`).
     fn range(&self, lo: usize, hi: usize) -> std::ops::Range<usize> {
-        let a = self.frames.partition_point(|&f| f < lo);
-        let b = self.frames.partition_point(|&f| f <= hi);
+        let a = self.frames.partition_point(|&(p, _)| p < lo);
+        let b = self.frames.partition_point(|&(p, _)| p <= hi);
         a..b.max(a)
     }
 
-    fn any<R: Rng>(&self, rng: &mut R) -> usize {
+    /// A random usable entry (place, image).
+    fn any<R: Rng>(&self, rng: &mut R) -> (usize, usize) {
         self.frames[rng.random_range(0..self.frames.len())]
     }
 
-    /// A frame other than `f` at most `positive` frames from it (the nearest usable frame
+    /// Another image at most `positive` frames from `(place, image)` (the nearest in place
     /// when none is that close).
-    fn positive_of<R: Rng>(&self, f: usize, rng: &mut R) -> usize {
-        let r = self.range(f.saturating_sub(self.positive), f + self.positive);
-        let near: Vec<usize> = self.frames[r].iter().copied().filter(|&g| g != f).collect();
-        if let Some(&g) = near.choose(rng) {
-            return g;
+    fn positive_of<R: Rng>(&self, (place, image): (usize, usize), rng: &mut R) -> (usize, usize) {
+        let r = self.range(place.saturating_sub(self.positive), place + self.positive);
+        let near: Vec<(usize, usize)> = self.frames[r]
+            .iter()
+            .copied()
+            .filter(|&(_, i)| i != image)
+            .collect();
+        if let Some(&e) = near.choose(rng) {
+            return e;
         }
-        let lo = self.frames.partition_point(|&g| g < f);
-        let hi = self.frames.partition_point(|&g| g <= f);
-        let before = lo.checked_sub(1).map(|j| self.frames[j]);
-        let after = self.frames.get(hi).copied();
-        match (before, after) {
-            (Some(b), Some(a)) if f - b <= a - f => b,
-            (_, Some(a)) => a,
-            (Some(b), None) => b,
-            (None, None) => f,
-        }
+        self.frames
+            .iter()
+            .copied()
+            .filter(|&(_, i)| i != image)
+            .min_by_key(|&(p, _)| p.abs_diff(place))
+            .unwrap_or((place, image))
     }
 
-    /// A frame at least `negative` frames from `f` (within `2 · negative` with probability
-    /// `near`). The constructor ensures one exists.
-    fn negative_of<R: Rng>(&self, f: usize, rng: &mut R) -> usize {
+    /// An image at least `negative` frames from `place` (within `2 · negative` with
+    /// probability `near`). The constructor ensures one exists.
+    fn negative_of<R: Rng>(&self, place: usize, rng: &mut R) -> (usize, usize) {
         let n = self.negative;
-        if rng.random_bool(self.near) {
-            let below = if f >= n {
-                self.range(f.saturating_sub(2 * n), f - n)
-            } else {
-                0..0
-            };
-            let above = self.range(f + n, f + 2 * n);
-            let count = below.len() + above.len();
-            if count > 0 {
-                let k = rng.random_range(0..count);
-                return if k < below.len() {
-                    self.frames[below.start + k]
-                } else {
-                    self.frames[above.start + k - below.len()]
-                };
-            }
-        }
-        // Anywhere at least `n` away: the usable frames below f − n and above f + n.
-        let below = if f >= n { self.range(0, f - n) } else { 0..0 };
-        let above = self.range(f + n, usize::MAX - 1);
+        let (below, above) = if rng.random_bool(self.near) {
+            (
+                place
+                    .checked_sub(n)
+                    .map_or(0..0, |hi| self.range(place.saturating_sub(2 * n), hi)),
+                self.range(place + n, place + 2 * n),
+            )
+        } else {
+            (0..0, 0..0)
+        };
+        let (below, above) = if below.is_empty() && above.is_empty() {
+            // Anywhere at least `n` away.
+            (
+                place.checked_sub(n).map_or(0..0, |hi| self.range(0, hi)),
+                self.range(place + n, usize::MAX - 1),
+            )
+        } else {
+            (below, above)
+        };
         let count = below.len() + above.len();
         if count == 0 {
-            return f;
+            return self.any(rng);
         }
         let k = rng.random_range(0..count);
         if k < below.len() {
@@ -229,14 +231,16 @@ impl PairSampler {
         })
     }
 
-    /// A sampler of [`PairRule::Track`] pairs over the usable `frames` of one ordered pass
-    /// (frame index = position along the pass); zone pairs come from [`PairSampler::new`].
+    /// A sampler of [`PairRule::Track`] pairs over usable images given as `(place, image)`:
+    /// the image's place along the training pass (its frame index, or for a frame of another
+    /// pass the nearest training frame) and its index in the batch source. Zone pairs come
+    /// from [`PairSampler::new`].
     ///
     /// # Errors
     /// [`NetError::Config`] for a rule other than `Track` or bad values;
     /// [`NetError::Zoning`] when the usable frames span fewer than `2 · negative_frames`
     /// frames (some frame would have no negative partner).
-    pub fn along_track(mut frames: Vec<usize>, rule: PairRule) -> Result<Self, NetError> {
+    pub fn along_track(mut frames: Vec<(usize, usize)>, rule: PairRule) -> Result<Self, NetError> {
         rule.validate()?;
         let PairRule::Track {
             positive_frames,
@@ -251,7 +255,7 @@ impl PairSampler {
         frames.sort_unstable();
         frames.dedup();
         let span = match (frames.first(), frames.last()) {
-            (Some(a), Some(b)) => b - a,
+            (Some(a), Some(b)) => b.0 - a.0,
             _ => 0,
         };
         if span < 2 * negative_frames {
@@ -388,14 +392,14 @@ fn track_batch<R: Rng>(
         let mut f = t.any(rng);
         for k in 0..chain {
             let g = t.positive_of(f, rng);
-            out.images.push(f);
-            out.images.push(g);
+            out.images.push(f.1);
+            out.images.push(g.1);
             if k < n_pos {
                 out.a.push(2 * k);
                 out.b.push(2 * k + 1);
                 out.dissimilar.push(0.0);
             }
-            f = t.negative_of(g, rng);
+            f = t.negative_of(g.0, rng);
         }
         for k in 0..n_neg {
             out.a.push(2 * k + 1);
@@ -409,12 +413,12 @@ fn track_batch<R: Rng>(
                 let g = if label == 0.0 {
                     t.positive_of(f, rng)
                 } else {
-                    t.negative_of(f, rng)
+                    t.negative_of(f.0, rng)
                 };
                 out.a.push(out.images.len());
-                out.images.push(f);
+                out.images.push(f.1);
                 out.b.push(out.images.len());
-                out.images.push(g);
+                out.images.push(g.1);
                 out.dissimilar.push(label);
             }
         }
@@ -487,7 +491,7 @@ mod tests {
             negative_frames: 10,
             near_fraction: 0.5,
         };
-        let s = PairSampler::along_track(frames.clone(), rule).unwrap();
+        let s = PairSampler::along_track(frames.iter().map(|&f| (f, f)).collect(), rule).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         for shared in [false, true] {
             let (mut neg, mut near) = (0, 0);
@@ -521,7 +525,7 @@ mod tests {
     #[test]
     fn track_pairs_refuse_short_passes_and_bad_gaps() {
         let rule = PairRule::track();
-        let err = PairSampler::along_track((0..15).collect(), rule)
+        let err = PairSampler::along_track((0..15).map(|f| (f, f)).collect(), rule)
             .unwrap_err()
             .to_string();
         assert!(err.contains("at least 2 × negative_frames = 20"), "{err}");
@@ -530,11 +534,11 @@ mod tests {
             negative_frames: 5,
             near_fraction: 0.5,
         };
-        let err = PairSampler::along_track((0..100).collect(), bad)
+        let err = PairSampler::along_track((0..100).map(|f| (f, f)).collect(), bad)
             .unwrap_err()
             .to_string();
         assert!(err.contains("negative_frames 5 > positive_frames"), "{err}");
-        let err = PairSampler::along_track((0..100).collect(), PairRule::Zone)
+        let err = PairSampler::along_track((0..100).map(|f| (f, f)).collect(), PairRule::Zone)
             .unwrap_err()
             .to_string();
         assert!(err.contains("track pair rule"), "{err}");
@@ -560,5 +564,38 @@ mod tests {
         );
         let w: W = toml::from_str("[pairs]\nrule = \"zone\"\n").unwrap();
         assert_eq!(w.pairs, PairRule::Zone);
+    }
+
+    #[test]
+    fn track_pairs_join_passes_by_their_place_along_the_training_pass() {
+        // Images 0..100 are the training pass; images 100..200 another pass, image 100 + k
+        // nearest to training frame k.
+        let frames: Vec<(usize, usize)> = (0..100)
+            .map(|f| (f, f))
+            .chain((0..100).map(|k| (k, 100 + k)))
+            .collect();
+        let place = |i: usize| if i >= 100 { i - 100 } else { i };
+        let s = PairSampler::along_track(frames, PairRule::track()).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let (mut positives, mut across) = (0, 0);
+        for _ in 0..20 {
+            let b = s.batch(64, true, &mut rng);
+            for k in 0..64 {
+                let (i, j) = (b.images[b.a[k]], b.images[b.b[k]]);
+                let gap = place(i).abs_diff(place(j));
+                if b.dissimilar[k] == 0.0 {
+                    assert!(gap <= 3 && i != j, "positive {i} {j}");
+                    positives += 1;
+                    if (i >= 100) != (j >= 100) {
+                        across += 1;
+                    }
+                } else {
+                    assert!(gap >= 10, "negative {i} {j}");
+                }
+            }
+        }
+        // About half the partners of an image come from the other pass.
+        let frac = across as f64 / positives as f64;
+        assert!(frac > 0.35 && frac < 0.65, "across passes {frac}");
     }
 }

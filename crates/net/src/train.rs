@@ -20,7 +20,7 @@ use crate::pairs::{PairBatch, PairRule, PairSampler};
 use crate::preprocess::{InputSize, resize_area, standardize};
 use crate::regress::view::ViewIntrinsics;
 use crate::temporal::TemporalConfig;
-use crate::zones::ZoneTable;
+use crate::zones::{TRUTH_ANGLE_WEIGHT_MM_PER_DEG, ZoneTable, nearest_frame};
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Device, Int, Tensor, TensorData};
@@ -250,11 +250,6 @@ impl TrainConfig {
             ));
         }
         self.pairs.validate()?;
-        if matches!(self.pairs, PairRule::Track { .. }) && !self.extra_sequences.is_empty() {
-            return Err(NetError::Config(
-                "track pairs rank frames along the one training pass; they do not take extra passes (drop --also-seq or use zone pairs)".into(),
-            ));
-        }
         if !(0.0..=45.0).contains(&self.augment.tilt_deg) {
             return Err(NetError::Config(format!(
                 "augment.tilt_deg {} must be in [0, 45] degrees",
@@ -355,6 +350,9 @@ pub struct ImageCache {
     pub pixels: Vec<f32>,
     /// Pinhole model of the images at this size (for view augmentation), when known.
     pub view: Option<ViewIntrinsics>,
+    /// Place of each image along the training pass (the training frame nearest to its pose),
+    /// for [`PairRule::Track`]; empty when image `i` is training frame `i`.
+    pub along: Vec<usize>,
 }
 
 impl ImageCache {
@@ -398,6 +396,7 @@ impl ImageCache {
             size,
             pixels,
             view: None,
+            along: Vec::new(),
         }
     }
 
@@ -409,6 +408,11 @@ impl ImageCache {
     /// Whether there are no images.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// Place of image `i` along the training pass ([`ImageCache::along`]).
+    pub fn along_of(&self, i: usize) -> usize {
+        self.along.get(i).copied().unwrap_or(i)
     }
 
     /// Image `i`.
@@ -593,9 +597,13 @@ pub fn fit(
             cfg.hard_negative_fraction,
             cfg.hard_negative_reach,
         )?,
-        rule @ PairRule::Track { .. } => {
-            PairSampler::along_track((0..n).filter(|&f| !is_held(f)).collect(), rule)?
-        }
+        rule @ PairRule::Track { .. } => PairSampler::along_track(
+            (0..n)
+                .filter(|&f| !is_held(f))
+                .map(|f| (cache.along_of(f), f))
+                .collect(),
+            rule,
+        )?,
     };
     // Validation queries: (image cache, frames in it, truth zones).
     let held: Vec<usize> = (0..n).filter(|&f| is_held(f)).collect();
@@ -920,8 +928,9 @@ impl TrainTarget {
 }
 
 /// Appends the frames of further passes to `cache` and returns the zone table extended to
-/// them (each extra frame takes the zone of its nearest pose of `seq`) and the number of
-/// frames taken from each pass.
+/// them (each extra frame takes the zone of its nearest pose of `seq`, and that pose's
+/// frame as its place along the pass, [`ImageCache::along`]) and the number of frames taken
+/// from each pass.
 ///
 /// # Errors
 /// [`NetError::Data`] for an unreadable sequence or image; [`NetError::Config`] for a pass
@@ -958,7 +967,10 @@ fn add_passes(
             )));
         }
         let poses: Vec<endoloc_geometry::Pose> = pass.poses.iter().map(|p| p.pose).collect();
-        let truth = zones.truth_zones(&train_poses, &poses);
+        let nearest: Vec<Option<usize>> = poses
+            .par_iter()
+            .map(|p| nearest_frame(&train_poses, p, TRUTH_ANGLE_WEIGHT_MM_PER_DEG))
+            .collect();
         let total = pass.len();
         let images = ImageCache::from_sequence(&pass, cache.size, &mut |done| {
             progress(&TrainProgress::outside_training(
@@ -968,10 +980,14 @@ fn add_passes(
             ))
         })?;
         let before = table.zone_of_frame.len();
-        for (i, zone) in truth.into_iter().enumerate() {
-            if let Some(z) = zone {
+        if cache.along.is_empty() {
+            cache.along = (0..before).collect();
+        }
+        for (i, frame) in nearest.into_iter().enumerate() {
+            if let Some(z) = frame.and_then(|f| zones.zone_of_frame.get(f).copied()) {
                 cache.pixels.extend_from_slice(images.image(i));
                 table.zone_of_frame.push(z);
+                cache.along.extend(frame);
             }
         }
         counts.push(table.zone_of_frame.len() - before);

@@ -53,6 +53,10 @@ pub struct Args {
     /// Training epochs per colon (default: the `fast` schedule's).
     #[arg(long)]
     epochs: Option<usize>,
+    /// Training pairs of each colon: `zone` (default) or `track` (see `endoloc train
+    /// --pairs`; the test pass's frames then pair by their place along the training pass).
+    #[arg(long, value_name = "RULE")]
+    pairs: Option<String>,
     /// Frames of each pass (default: the preset's).
     #[arg(long, value_name = "N")]
     frames: Option<usize>,
@@ -138,6 +142,9 @@ pub fn run(args: Args) -> Result<()> {
             }
             if let Some(e) = args.epochs {
                 train.extend(strings(&["--epochs", &e.to_string()]));
+            }
+            if let Some(rule) = &args.pairs {
+                train.extend(strings(&["--pairs", rule]));
             }
             stage(&format!("{title}: train"), &train);
             cmd::train::run(parse(&train)?)?;
