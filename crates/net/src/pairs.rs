@@ -47,6 +47,9 @@ pub enum PairRule {
         /// Fraction of negatives drawn from `negative_frames ..= 2 · negative_frames` frames
         /// away, in `[0, 1]`; the rest anywhere at least `negative_frames` away.
         near_fraction: f32,
+        /// Fraction of each batch drawn as zone pairs instead, in `[0, 1)` (default 0).
+        #[serde(default)]
+        zone_fraction: f32,
     },
 }
 
@@ -58,6 +61,7 @@ impl PairRule {
             positive_frames: 3,
             negative_frames: 10,
             near_fraction: 0.5,
+            zone_fraction: 0.0,
         }
     }
 
@@ -70,8 +74,14 @@ impl PairRule {
             positive_frames,
             negative_frames,
             near_fraction,
+            zone_fraction,
         } = *self
         {
+            if !(0.0..1.0).contains(&zone_fraction) {
+                return Err(NetError::Config(format!(
+                    "pairs: zone_fraction {zone_fraction} must be in [0, 1)"
+                )));
+            }
             if positive_frames == 0 || negative_frames <= positive_frames {
                 return Err(NetError::Config(format!(
                     "pairs: positive_frames {positive_frames} ≥ 1 and negative_frames {negative_frames} > positive_frames expected"
@@ -95,6 +105,8 @@ struct TrackPairs {
     positive: usize,
     negative: usize,
     near: f64,
+    /// Fraction of each batch drawn as zone pairs.
+    zone_share: f64,
 }
 
 impl TrackPairs {
@@ -246,6 +258,7 @@ impl PairSampler {
             positive_frames,
             negative_frames,
             near_fraction,
+            zone_fraction,
         } = rule
         else {
             return Err(NetError::Config(
@@ -275,7 +288,21 @@ impl PairSampler {
                 positive: positive_frames,
                 negative: negative_frames,
                 near: near_fraction as f64,
+                zone_share: zone_fraction as f64,
             }),
+        })
+    }
+
+    /// Adds the zone pairs that a track rule's `zone_fraction` asks for, drawn from
+    /// `zone_frames` as [`PairSampler::new`] does (no hard negatives).
+    ///
+    /// # Errors
+    /// Those of [`PairSampler::new`].
+    pub fn with_zone_pairs(self, zone_frames: Vec<Vec<usize>>) -> Result<Self, NetError> {
+        let zones = PairSampler::new(zone_frames, 0.0, 1)?;
+        Ok(PairSampler {
+            track: self.track,
+            ..zones
         })
     }
 
@@ -317,6 +344,42 @@ impl PairSampler {
     /// A batch of `pairs` pairs (half positive, half negative; an odd count gets one more
     /// positive).
     pub fn batch<R: Rng>(&self, pairs: usize, shared: bool, rng: &mut R) -> PairBatch {
+        let Some(t) = &self.track else {
+            return self.zone_batch(pairs, shared, rng);
+        };
+        let zone_pairs = if self.any_zones.len() >= 2 && !self.pos_zones.is_empty() {
+            ((pairs as f64 * t.zone_share).round() as usize).min(pairs.saturating_sub(2))
+        } else {
+            0
+        };
+        let track_pairs = pairs - zone_pairs;
+        let mut out = PairBatch {
+            images: Vec::with_capacity(2 * pairs),
+            a: Vec::with_capacity(pairs),
+            b: Vec::with_capacity(pairs),
+            dissimilar: Vec::with_capacity(pairs),
+        };
+        track_batch(
+            t,
+            track_pairs.div_ceil(2),
+            track_pairs / 2,
+            shared,
+            rng,
+            &mut out,
+        );
+        if zone_pairs >= 2 {
+            let z = self.zone_batch(zone_pairs, shared, rng);
+            let offset = out.images.len();
+            out.images.extend(z.images);
+            out.a.extend(z.a.iter().map(|i| i + offset));
+            out.b.extend(z.b.iter().map(|i| i + offset));
+            out.dissimilar.extend(z.dissimilar);
+        }
+        out
+    }
+
+    /// Zone pairs ([`PairRule::Zone`]).
+    fn zone_batch<R: Rng>(&self, pairs: usize, shared: bool, rng: &mut R) -> PairBatch {
         let n_pos = pairs.div_ceil(2);
         let n_neg = pairs / 2;
         let mut out = PairBatch {
@@ -325,10 +388,6 @@ impl PairSampler {
             b: Vec::with_capacity(pairs),
             dissimilar: Vec::with_capacity(pairs),
         };
-        if let Some(t) = &self.track {
-            track_batch(t, n_pos, n_neg, shared, rng, &mut out);
-            return out;
-        }
         if shared && self.pos_zones.len() >= 2 {
             // Chain of positive pairs whose consecutive zones differ.
             let mut zones = Vec::with_capacity(n_pos.max(n_neg + 1));
@@ -490,6 +549,7 @@ mod tests {
             positive_frames: 3,
             negative_frames: 10,
             near_fraction: 0.5,
+            zone_fraction: 0.0,
         };
         let s = PairSampler::along_track(frames.iter().map(|&f| (f, f)).collect(), rule).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(3);
@@ -533,6 +593,7 @@ mod tests {
             positive_frames: 5,
             negative_frames: 5,
             near_fraction: 0.5,
+            zone_fraction: 0.0,
         };
         let err = PairSampler::along_track((0..100).map(|f| (f, f)).collect(), bad)
             .unwrap_err()
@@ -559,7 +620,8 @@ mod tests {
             PairRule::Track {
                 positive_frames: 2,
                 negative_frames: 8,
-                near_fraction: 0.25
+                near_fraction: 0.25,
+                zone_fraction: 0.0,
             }
         );
         let w: W = toml::from_str("[pairs]\nrule = \"zone\"\n").unwrap();
@@ -597,5 +659,36 @@ mod tests {
         // About half the partners of an image come from the other pass.
         let frac = across as f64 / positives as f64;
         assert!(frac > 0.35 && frac < 0.65, "across passes {frac}");
+    }
+
+    #[test]
+    fn mixed_batches_hold_track_pairs_then_the_asked_share_of_zone_pairs() {
+        let zf: Vec<Vec<usize>> = (0..10).map(|z| (z * 30..z * 30 + 30).collect()).collect();
+        let rule = PairRule::Track {
+            positive_frames: 3,
+            negative_frames: 10,
+            near_fraction: 0.5,
+            zone_fraction: 0.25,
+        };
+        let s = PairSampler::along_track((0..300).map(|f| (f, f)).collect(), rule)
+            .unwrap()
+            .with_zone_pairs(zf)
+            .unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for shared in [false, true] {
+            let b = s.batch(64, shared, &mut rng);
+            assert_eq!(b.a.len(), 64);
+            assert_eq!(b.dissimilar.iter().filter(|&&d| d == 0.0).count(), 32);
+            for k in 0..64 {
+                let (i, j) = (b.images[b.a[k]], b.images[b.b[k]]);
+                let same = b.dissimilar[k] == 0.0;
+                if k < 48 {
+                    let gap = i.abs_diff(j);
+                    assert!(if same { gap <= 3 } else { gap >= 10 }, "track pair {k}");
+                } else {
+                    assert_eq!(i / 30 == j / 30, same, "zone pair {k}: {i} {j}");
+                }
+            }
+        }
     }
 }

@@ -597,13 +597,20 @@ pub fn fit(
             cfg.hard_negative_fraction,
             cfg.hard_negative_reach,
         )?,
-        rule @ PairRule::Track { .. } => PairSampler::along_track(
-            (0..n)
-                .filter(|&f| !is_held(f))
-                .map(|f| (cache.along_of(f), f))
-                .collect(),
-            rule,
-        )?,
+        rule @ PairRule::Track { zone_fraction, .. } => {
+            let track = PairSampler::along_track(
+                (0..n)
+                    .filter(|&f| !is_held(f))
+                    .map(|f| (cache.along_of(f), f))
+                    .collect(),
+                rule,
+            )?;
+            if zone_fraction > 0.0 {
+                track.with_zone_pairs(zone_frames)?
+            } else {
+                track
+            }
+        }
     };
     // Validation queries: (image cache, frames in it, truth zones).
     let held: Vec<usize> = (0..n).filter(|&f| is_held(f)).collect();

@@ -121,6 +121,10 @@ pub struct Args {
     #[arg(long, value_name = "F")]
     near_fraction: Option<f32>,
 
+    /// Track pairs: fraction of each batch drawn as zone pairs instead (default 0).
+    #[arg(long, value_name = "F")]
+    zone_fraction: Option<f32>,
+
     /// Schedule preset: `fast` or `paper`.
     #[arg(long, default_value = "fast")]
     schedule: String,
@@ -203,12 +207,14 @@ fn pair_rule(args: &Args, rule: PairRule) -> Result<PairRule> {
         },
         Some(other) => bail!("--pairs {other}: expected `zone` or `track`"),
     };
-    let tuning = args.pair_frames.is_some() || args.near_fraction.is_some();
+    let tuning =
+        args.pair_frames.is_some() || args.near_fraction.is_some() || args.zone_fraction.is_some();
     match &mut rule {
         PairRule::Track {
             positive_frames,
             negative_frames,
             near_fraction,
+            zone_fraction,
         } => {
             if let Some(spec) = &args.pair_frames {
                 let parsed = spec
@@ -222,9 +228,14 @@ fn pair_rule(args: &Args, rule: PairRule) -> Result<PairRule> {
             if let Some(f) = args.near_fraction {
                 *near_fraction = f;
             }
+            if let Some(f) = args.zone_fraction {
+                *zone_fraction = f;
+            }
         }
         PairRule::Zone if tuning => {
-            bail!("--pair-frames and --near-fraction apply to track pairs (--pairs track)")
+            bail!(
+                "--pair-frames, --near-fraction and --zone-fraction apply to track pairs (--pairs track)"
+            )
         }
         PairRule::Zone => {}
     }
@@ -523,7 +534,8 @@ mod tests {
             PairRule::Track {
                 positive_frames: 2,
                 negative_frames: 8,
-                near_fraction: 0.3
+                near_fraction: 0.3,
+                zone_fraction: 0.0
             }
         );
         let e = config(&["--pairs", "frames"]).unwrap_err().to_string();
