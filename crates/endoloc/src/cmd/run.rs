@@ -26,6 +26,7 @@ use crate::cmd::demo::{parse, stage};
 ///   epochs = 0                         # 0 = the schedule's
 ///   seed = 0
 ///   pretrained = "models/pretrain/weights.safetensors"   # optional start weights
+///   pairs = "zone"                     # zone (the paper's) | track (`endoloc train --pairs`)
 ///   [map]
 ///   images_per_zone = 8
 ///   threshold = 25.0                   # map; test frames at twice it, retried at it
@@ -83,6 +84,8 @@ struct TrainStage {
     seed: u64,
     /// Start from these weights (`--pretrained`; a path like `out` and `data`).
     pretrained: Option<PathBuf>,
+    /// Training pairs: `zone` or `track` (`--pairs`).
+    pairs: String,
 }
 
 impl Default for TrainStage {
@@ -93,6 +96,7 @@ impl Default for TrainStage {
             epochs: 0,
             seed: 0,
             pretrained: None,
+            pairs: "zone".into(),
         }
     }
 }
@@ -195,6 +199,8 @@ pub fn run(args: Args) -> Result<()> {
         &exp.train.schedule,
         "--seed",
         &exp.train.seed.to_string(),
+        "--pairs",
+        &exp.train.pairs,
     ]);
     if exp.train.epochs > 0 {
         train.extend(s(&["--epochs", &exp.train.epochs.to_string()]));
