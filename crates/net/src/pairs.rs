@@ -181,17 +181,19 @@ impl TrackPairs {
 /// One batch of pairs: the images to run through the network and the pairs among them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PairBatch {
-    /// Training frame of each batch row.
+    /// Image of each batch row (training frame, or a further pass's frame after them).
     pub images: Vec<usize>,
     /// Row of the first image of each pair.
     pub a: Vec<usize>,
     /// Row of the second image of each pair.
     pub b: Vec<usize>,
-    /// Pair label: 0 = same zone, 1 = different zones (the paper's `x`).
+    /// Pair label (the paper's `x`): 0 = alike (same zone; track pairs: near along the
+    /// pass), 1 = different (other zones; track pairs: far along the pass).
     pub dissimilar: Vec<f32>,
 }
 
-/// Draws pairs from the frames of each zone.
+/// Draws pairs from the frames of each zone ([`PairSampler::new`]) or by place along the
+/// training pass ([`PairSampler::along_track`]).
 #[derive(Debug, Clone)]
 pub struct PairSampler {
     /// Usable frames of each zone (zone index = position).
