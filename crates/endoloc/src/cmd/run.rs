@@ -84,8 +84,25 @@ struct TrainStage {
     seed: u64,
     /// Start from these weights (`--pretrained`; a path like `out` and `data`).
     pretrained: Option<PathBuf>,
-    /// Training pairs: `zone` or `track` (`--pairs`).
-    pairs: String,
+    /// Training pairs (`--pairs`).
+    pairs: PairsChoice,
+}
+
+/// `[train] pairs`: the value of `endoloc train --pairs`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum PairsChoice {
+    Zone,
+    Track,
+}
+
+impl PairsChoice {
+    fn flag(self) -> &'static str {
+        match self {
+            PairsChoice::Zone => "zone",
+            PairsChoice::Track => "track",
+        }
+    }
 }
 
 impl Default for TrainStage {
@@ -96,7 +113,7 @@ impl Default for TrainStage {
             epochs: 0,
             seed: 0,
             pretrained: None,
-            pairs: "zone".into(),
+            pairs: PairsChoice::Zone,
         }
     }
 }
@@ -200,7 +217,7 @@ pub fn run(args: Args) -> Result<()> {
         "--seed",
         &exp.train.seed.to_string(),
         "--pairs",
-        &exp.train.pairs,
+        exp.train.pairs.flag(),
     ]);
     if exp.train.epochs > 0 {
         train.extend(s(&["--epochs", &exp.train.epochs.to_string()]));
@@ -278,4 +295,22 @@ pub fn run(args: Args) -> Result<()> {
         .with_context(|| format!("writing {}", path.display()))?;
     eprintln!("wrote {}", path.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn train_pairs_parse_and_a_bad_rule_is_named() {
+        let exp: Experiment =
+            toml::from_str("out = \"o\"\ndata = \"d\"\n[train]\npairs = \"track\"\n").unwrap();
+        assert_eq!(exp.train.pairs.flag(), "track");
+        let exp: Experiment = toml::from_str("out = \"o\"\ndata = \"d\"\n").unwrap();
+        assert_eq!(exp.train.pairs.flag(), "zone");
+        let e = toml::from_str::<Experiment>("out = \"o\"\n[train]\npairs = \"frames\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("frames") && e.contains("track"), "{e}");
+    }
 }
