@@ -19,11 +19,9 @@ const PER_ZONE: usize = 12;
 const W: u32 = 64;
 const H: u32 = 48;
 
-/// A frame of zone `z`: stripes whose orientation and frequency depend on the zone, a
-/// random phase and noise, so that zones are separable but frames differ.
-fn frame(z: usize, rng: &mut ChaCha8Rng) -> image::GrayImage {
-    let angle = z as f32 * std::f32::consts::PI / ZONES as f32;
-    let freq = 0.15 + 0.1 * z as f32;
+/// Stripes at `angle` (radians) and spatial frequency `freq` (radians per pixel), a random
+/// phase and noise.
+fn stripes(angle: f32, freq: f32, rng: &mut ChaCha8Rng) -> image::GrayImage {
     let phase: f32 = rng.random_range(0.0..std::f32::consts::TAU);
     let (s, c) = angle.sin_cos();
     image::GrayImage::from_fn(W, H, |x, y| {
@@ -33,17 +31,32 @@ fn frame(z: usize, rng: &mut ChaCha8Rng) -> image::GrayImage {
     })
 }
 
+/// A frame of zone `z`: stripes whose orientation and frequency depend on the zone, so that
+/// zones are separable but frames differ.
+fn frame(z: usize, rng: &mut ChaCha8Rng) -> image::GrayImage {
+    stripes(
+        z as f32 * std::f32::consts::PI / ZONES as f32,
+        0.15 + 0.1 * z as f32,
+        rng,
+    )
+}
+
 fn camera() -> Camera {
     Camera::from_hfov(W, H, 90.0)
 }
 
-/// Writes a sequence folder (images + poses.txt along x, 1 mm per frame) and opens it.
-fn write_sequence(dir: &Path, seed: u64) -> Sequence {
+/// Writes a sequence folder of `ZONES · PER_ZONE` frames `make(i, rng)` (images + poses.txt
+/// along x, 1 mm per frame) and opens it.
+fn write_frames(
+    dir: &Path,
+    seed: u64,
+    mut make: impl FnMut(usize, &mut ChaCha8Rng) -> image::GrayImage,
+) -> Sequence {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     std::fs::create_dir_all(dir.join("images")).unwrap();
     let mut poses = Vec::new();
     for i in 0..ZONES * PER_ZONE {
-        frame(i / PER_ZONE, &mut rng)
+        make(i, &mut rng)
             .save(dir.join("images").join(format!("{i:06}.png")))
             .unwrap();
         poses.push(StampedPose {
@@ -53,6 +66,11 @@ fn write_sequence(dir: &Path, seed: u64) -> Sequence {
     }
     endoloc_data::write_tum(&dir.join("poses.txt"), &poses).unwrap();
     Sequence::open(dir).unwrap()
+}
+
+/// A sequence of [`frame`]s, `PER_ZONE` per zone.
+fn write_sequence(dir: &Path, seed: u64) -> Sequence {
+    write_frames(dir, seed, |i, rng| frame(i / PER_ZONE, rng))
 }
 
 fn tiny_config(epochs: usize) -> TrainConfig {
@@ -378,31 +396,13 @@ fn extra_passes_join_the_training_pairs_but_not_the_database_and_bad_passes_are_
     );
 }
 
-/// A pass whose look turns smoothly with the frame index (stripes at angle `i · π / n`,
-/// random phase and noise): neighbours look alike, and only the angle places a frame.
+/// A pass whose look turns smoothly with the frame index (stripes at angle `i · π / n`):
+/// neighbours look alike, and only the angle places a frame.
 fn write_smooth_sequence(dir: &Path, seed: u64) -> Sequence {
-    let n = ZONES * PER_ZONE;
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    std::fs::create_dir_all(dir.join("images")).unwrap();
-    let mut poses = Vec::new();
-    for i in 0..n {
-        let angle = i as f32 * std::f32::consts::PI / n as f32;
-        let phase: f32 = rng.random_range(0.0..std::f32::consts::TAU);
-        let (s, c) = angle.sin_cos();
-        let img = image::GrayImage::from_fn(W, H, |x, y| {
-            let v = ((x as f32 * c + y as f32 * s) * 0.3 + phase).sin();
-            let noise: f32 = rng.random_range(-0.2..0.2);
-            image::Luma([((v + noise) * 100.0 + 128.0).clamp(0.0, 255.0) as u8])
-        });
-        img.save(dir.join("images").join(format!("{i:06}.png")))
-            .unwrap();
-        poses.push(StampedPose {
-            timestamp_s: i as f64 / 30.0,
-            pose: pose_from_parts(Vector3::new(i as f64, 0.0, 0.0), UnitQuaternion::identity()),
-        });
-    }
-    endoloc_data::write_tum(&dir.join("poses.txt"), &poses).unwrap();
-    Sequence::open(dir).unwrap()
+    let n = (ZONES * PER_ZONE) as f32;
+    write_frames(dir, seed, |i, rng| {
+        stripes(i as f32 * std::f32::consts::PI / n, 0.3, rng)
+    })
 }
 
 /// Mean |nearest training frame − frame| over the frames of `query`.
@@ -434,6 +434,7 @@ fn track_pairs_place_a_frame_along_the_pass_more_finely_than_zone_pairs() {
                 positive_frames: 1,
                 negative_frames: 4,
                 near_fraction: 0.5,
+                zone_fraction: 0.0,
             },
         ),
     ] {
