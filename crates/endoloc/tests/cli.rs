@@ -167,6 +167,61 @@ fn every_method_and_experiment_writes_its_outputs() {
             .all(|z| z.parse::<usize>().is_ok_and(|z| z < 6))),
         "{zones}"
     );
+    // An existing zone file is kept unless --force, and replaced whole with it.
+    let again = [
+        "classify",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--limit",
+        "5",
+        "--out",
+        &r("zones.csv"),
+    ];
+    let err = fails(&again);
+    assert!(
+        err.contains("zones.csv") && err.contains("--force"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(st.root.join("zones.csv")).unwrap(),
+        zones
+    );
+    ok(&[&again[..], &["--force"]].concat());
+    let replaced = std::fs::read_to_string(st.root.join("zones.csv")).unwrap();
+    assert_eq!(
+        replaced.lines().count(),
+        6,
+        "header + the 5 frames asked for"
+    );
+    // The model joined with itself (an ensemble of one model twice) gives the same zones.
+    let joined = ok(&[
+        "classify",
+        "--model",
+        &r("model"),
+        "--also-model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--limit",
+        "5",
+        "--out",
+        &r("zones_joined.csv"),
+    ]);
+    assert!(joined.contains(" + "), "names both models: {joined}");
+    let zones_only = |text: &str| -> Vec<String> {
+        text.lines()
+            .map(|l| {
+                let c: Vec<&str> = l.split(',').collect();
+                format!("{} {} {}", c[2], c[7], c[9])
+            })
+            .collect()
+    };
+    assert_eq!(
+        zones_only(&std::fs::read_to_string(st.root.join("zones_joined.csv")).unwrap()),
+        zones_only(&replaced)
+    );
     // Without maps, --verify says what to run first.
     let bare = st.root.join("model_without_map");
     std::fs::create_dir(&bare).unwrap();
@@ -427,4 +482,51 @@ fn pretrain_chains_colons_and_writes_start_weights_that_train_accepts() {
         "0",
     ]);
     assert!(err.contains("--colons 0"), "{err}");
+}
+
+#[test]
+fn features_writes_keypoints_and_overlay_and_keeps_them_without_force() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |name: &str| s(&tmp.path().join(name));
+    // Dark discs on a bright ground: blobs SURF finds.
+    let img = image::GrayImage::from_fn(160, 120, |x, y| {
+        let (cx, cy) = (40 + 40 * (x / 40), 30 + 40 * (y / 40));
+        let r2 = (x as i64 - cx as i64).pow(2) + (y as i64 - cy as i64).pow(2);
+        image::Luma([if r2 < 64 { 30 } else { 220 }])
+    });
+    img.save(tmp.path().join("frame.png")).unwrap();
+
+    let args = [
+        "features",
+        &p("frame.png"),
+        "--keypoints",
+        &p("kp.csv"),
+        "--overlay",
+        &p("overlay.png"),
+    ];
+    ok(&args);
+    let keypoints = std::fs::read_to_string(tmp.path().join("kp.csv")).unwrap();
+    assert!(keypoints.lines().count() > 1, "{keypoints}");
+    let overlay = image::open(tmp.path().join("overlay.png")).unwrap();
+    assert_eq!((overlay.width(), overlay.height()), (160, 120));
+
+    std::fs::write(tmp.path().join("kp.csv"), "mine").unwrap();
+    let err = fails(&args);
+    // The first existing output is named; nothing is replaced.
+    assert!(
+        err.contains("overlay.png") && err.contains("--force"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("kp.csv")).unwrap(),
+        "mine"
+    );
+    ok(&[&args[..], &["--force"]].concat());
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("kp.csv")).unwrap(),
+        keypoints
+    );
+
+    let err = fails(&["features", &p("frame.png"), "--overlay", &p("o.jpg")]);
+    assert!(err.contains("o.jpg") && err.contains(".png"), "{err}");
 }

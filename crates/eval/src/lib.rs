@@ -45,7 +45,7 @@ pub use html::{Block, HtmlReport};
 pub use metrics::{
     EvalConfig, EvalInputs, Evaluation, FrameEvaluation, METRICS_FORMAT, Metrics, evaluate,
 };
-pub use output::{OutputDir, write_atomic};
+pub use output::{OutputDir, refuse_existing, write_atomic};
 pub use plots::{PlotConfig, text_available};
 pub use report::{Sources, render_report};
 pub use rpe::{RpeConfig, RpeErrors, rpe_errors};

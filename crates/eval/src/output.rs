@@ -42,6 +42,23 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), EvalError> {
     result
 }
 
+/// Refuses to replace any of `paths` that already exists, unless `force`: call it for every
+/// file a command will write before doing the work, so a long run never ends by refusing.
+///
+/// # Errors
+/// [`EvalError::AlreadyExists`] for the first path that exists when `force` is false.
+pub fn refuse_existing<P: AsRef<Path>>(paths: &[P], force: bool) -> Result<(), EvalError> {
+    if force {
+        return Ok(());
+    }
+    match paths.iter().map(AsRef::as_ref).find(|p| p.exists()) {
+        Some(p) => Err(EvalError::AlreadyExists {
+            path: p.to_path_buf(),
+        }),
+        None => Ok(()),
+    }
+}
+
 /// An output folder whose files may be written: created if missing; refuses when one of the
 /// files a run will write already exists, unless `force`.
 #[derive(Debug, Clone)]
@@ -88,5 +105,34 @@ impl OutputDir {
     /// [`EvalError::Io`] as [`write_atomic`].
     pub fn write(&self, name: &str, bytes: &[u8]) -> Result<(), EvalError> {
         write_atomic(&self.path(name), bytes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn existing_files_are_refused_unless_forced_and_kept_intact() {
+        let dir = tempfile::tempdir().unwrap();
+        let old = dir.path().join("zones.csv");
+        std::fs::write(&old, "user's results").unwrap();
+        let new = dir.path().join("scores.csv");
+
+        let err = refuse_existing(&[&new, &old], false).unwrap_err();
+        assert!(
+            matches!(&err, EvalError::AlreadyExists { path } if path == &old),
+            "{err}"
+        );
+        assert!(err.to_string().contains("--force"), "{err}");
+        assert_eq!(std::fs::read_to_string(&old).unwrap(), "user's results");
+
+        refuse_existing(&[&new], false).unwrap();
+        refuse_existing(&[&new, &old], true).unwrap();
+        write_atomic(&old, b"new").unwrap();
+        assert_eq!(std::fs::read_to_string(&old).unwrap(), "new");
+        // No temporary file is left beside it.
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
+        assert_eq!(names.len(), 1);
     }
 }

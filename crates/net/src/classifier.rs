@@ -10,9 +10,15 @@
 //! let smoothed = f.update(&p);
 //! # let _ = smoothed; Ok(()) }
 //! ```
+//!
+//! **Ensembles.** [`ZoneClassifier::join`] adds models trained on the same pass with the same
+//! zones (say one with zone pairs, best per frame, and one with track pairs, best filtered): a
+//! frame's descriptor becomes the concatenation of every model's unit descriptor, each scaled
+//! by `1/√n`. It stays unit length, the squared distance to a training frame is the mean of the
+//! models' squared distances, and every look-up, filter and the localizer work unchanged.
 
 use crate::NetError;
-use crate::backbone::EmbeddingNet;
+use crate::backbone::{BackboneConfig, EmbeddingNet};
 use crate::database::{DATABASE_FILE, DescriptorDatabase, ZonePrediction};
 use crate::model::{self, ModelConfig};
 use crate::preprocess::network_input;
@@ -23,23 +29,47 @@ use endoloc_geometry::{Camera, Pose};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
-/// A trained zone classifier (validation mode, on the CPU unless asked otherwise).
+/// A trained zone classifier (validation mode, on the CPU unless asked otherwise): one model
+/// folder, or several joined into an ensemble ([`ZoneClassifier::join`]).
 pub struct ZoneClassifier {
     dir: PathBuf,
     config: ModelConfig,
-    net: EmbeddingNet,
+    /// The networks whose descriptors are joined; one for a model folder.
+    nets: Vec<Branch>,
     device: Device,
     zones: ZoneTable,
     database: DescriptorDatabase,
     train_poses: Vec<Pose>,
+}
+
+/// One network of a classifier, with what it needs to describe a frame.
+struct Branch {
+    dir: PathBuf,
+    backbone: BackboneConfig,
+    net: EmbeddingNet,
     batch: usize,
+}
+
+impl Branch {
+    fn new(dir: PathBuf, config: &ModelConfig, net: EmbeddingNet) -> Self {
+        Branch {
+            dir,
+            backbone: config.backbone.clone(),
+            net,
+            batch: config.train.inference_batch.max(1),
+        }
+    }
 }
 
 impl std::fmt::Debug for ZoneClassifier {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let nets: Vec<String> = self
+            .nets
+            .iter()
+            .map(|b| format!("{} ({})", b.dir.display(), b.backbone.name()))
+            .collect();
         f.debug_struct("ZoneClassifier")
-            .field("dir", &self.dir)
-            .field("backbone", &self.config.backbone.name())
+            .field("nets", &nets)
             .field("zones", &self.zones.len())
             .field("frames", &self.database.len())
             .finish()
@@ -101,16 +131,14 @@ impl ZoneClassifier {
         }
         let net =
             model::load_weights(&config.backbone, &dir.join(model::WEIGHTS_FILE), &device)?.valid();
-        let batch = config.train.inference_batch.max(1);
         Ok(ZoneClassifier {
             dir: dir.to_path_buf(),
+            nets: vec![Branch::new(dir.to_path_buf(), &config, net)],
             config,
-            net,
             device,
             zones,
             database,
             train_poses,
-            batch,
         })
     }
 
@@ -148,17 +176,104 @@ impl ZoneClassifier {
                 ),
             });
         }
-        let batch = config.train.inference_batch.max(1);
         Ok(ZoneClassifier {
+            nets: vec![Branch::new(dir.clone(), &config, net)],
             dir,
             config,
-            net,
             device,
             zones,
             database,
             train_poses,
-            batch,
         })
+    }
+
+    /// An ensemble of this classifier and `others`, trained on the same pass with the same
+    /// zones: descriptors and database rows are the concatenation of every network's unit
+    /// descriptor scaled by `1/√n` (see the module docs). This classifier's configuration
+    /// (camera, score rule, filter parameters), folder and maps are the ensemble's.
+    ///
+    /// # Errors
+    /// [`NetError::Incompatible`] naming the model that differs: another zone table, other
+    /// training poses, other database rows, another image size or device.
+    pub fn join(mut self, others: Vec<ZoneClassifier>) -> Result<Self, NetError> {
+        if others.is_empty() {
+            return Ok(self);
+        }
+        for other in &others {
+            self.check_joinable(other)?;
+        }
+        let n_old = self.nets.len() as f32;
+        let n_new = n_old + others.iter().map(|o| o.nets.len() as f32).sum::<f32>();
+        // Rows of each part are already scaled by 1/√(its nets); rescale to 1/√(all nets).
+        let parts: Vec<(&DescriptorDatabase, f32)> = std::iter::once(&self.database)
+            .map(|d| (d, (n_old / n_new).sqrt()))
+            .chain(
+                others
+                    .iter()
+                    .map(|o| (&o.database, (o.nets.len() as f32 / n_new).sqrt())),
+            )
+            .collect();
+        let dim: usize = parts.iter().map(|(d, _)| d.dim).sum();
+        let mut rows = Vec::with_capacity(dim * self.database.len());
+        for r in 0..self.database.len() {
+            for (db, scale) in &parts {
+                let row = &db.descriptors[r * db.dim..(r + 1) * db.dim];
+                rows.extend(row.iter().map(|v| v * scale));
+            }
+        }
+        self.database = DescriptorDatabase::from_rows(
+            dim,
+            self.database.zones,
+            rows,
+            self.database.zone_of_row.clone(),
+            self.database.frame_of_row.clone(),
+        )?;
+        for other in others {
+            self.nets.extend(other.nets);
+        }
+        Ok(self)
+    }
+
+    fn check_joinable(&self, other: &ZoneClassifier) -> Result<(), NetError> {
+        let differs = |what: &str| NetError::Incompatible {
+            model: other.dir.clone(),
+            message: format!(
+                "cannot join it to {}: {what} differ (an ensemble needs models trained on the same pass with the same zones)",
+                self.dir.display()
+            ),
+        };
+        if other.zones.zone_of_frame != self.zones.zone_of_frame {
+            return Err(differs("the zone tables"));
+        }
+        let same_pose = |a: &Pose, b: &Pose| {
+            endoloc_geometry::position_error_mm(a, b) < 1e-6
+                && endoloc_geometry::orientation_error_deg(a, b) < 1e-6
+        };
+        if other.train_poses.len() != self.train_poses.len()
+            || !other
+                .train_poses
+                .iter()
+                .zip(&self.train_poses)
+                .all(|(a, b)| same_pose(a, b))
+        {
+            return Err(differs("the training poses"));
+        }
+        if other.database.frame_of_row != self.database.frame_of_row {
+            return Err(differs("the training frames in the descriptor databases"));
+        }
+        let (a, b) = (&self.config.camera, &other.config.camera);
+        if (a.width, a.height) != (b.width, b.height) {
+            return Err(differs("the image sizes"));
+        }
+        if other.device != self.device {
+            return Err(differs("the devices"));
+        }
+        Ok(())
+    }
+
+    /// Number of networks: 1 for a model folder, more for an ensemble.
+    pub fn net_count(&self) -> usize {
+        self.nets.len()
     }
 
     /// The model's `model.toml`.
@@ -250,7 +365,8 @@ impl ZoneClassifier {
             .unwrap_or_default())
     }
 
-    /// Descriptors of many frames: preprocessing on all cores, the network in batches.
+    /// Descriptors of many frames: preprocessing on all cores, the network in batches (every
+    /// network of an ensemble, joined).
     ///
     /// # Errors
     /// As [`ZoneClassifier::describe`], for the first bad image.
@@ -258,45 +374,73 @@ impl ZoneClassifier {
         for im in imgs {
             self.check_image(im)?;
         }
-        let size = self.config.backbone.input();
-        let dim = self.config.backbone.descriptor_dim();
-        let mut out = Vec::with_capacity(imgs.len());
-        for chunk in imgs.chunks(self.batch) {
-            let buf: Vec<f32> = chunk
+        Ok(self.describe_with(imgs.len(), |branch, range| {
+            let size = branch.backbone.input();
+            imgs[range]
                 .par_iter()
                 .flat_map_iter(|im| network_input(im, size))
-                .collect();
-            let v = crate::train::forward_values(&self.net, &self.device, buf, chunk.len(), size);
-            out.extend(v.chunks_exact(dim).map(<[f32]>::to_vec));
-        }
-        Ok(out)
+                .collect()
+        }))
     }
 
     /// Descriptors of network inputs already prepared at the model's input size (resized,
     /// standardised, e.g. by [`crate::preprocess::network_input`] and then warped), in batches.
     ///
     /// # Errors
-    /// [`NetError::Incompatible`] for an input of another length than the model's input.
+    /// [`NetError::Incompatible`] for an input of another length than the model's input, or
+    /// an ensemble whose networks take inputs of different sizes.
     pub fn describe_inputs(&self, inputs: &[Vec<f32>]) -> Result<Vec<Vec<f32>>, NetError> {
+        let incompatible = |message: String| NetError::Incompatible {
+            model: self.dir.clone(),
+            message,
+        };
         let size = self.config.backbone.input();
+        if let Some(b) = self.nets.iter().find(|b| b.backbone.input() != size) {
+            return Err(incompatible(format!(
+                "the ensemble's networks take inputs of {size} and {} ({}): prepare images with describe_batch",
+                b.backbone.input(),
+                b.dir.display()
+            )));
+        }
         if let Some(bad) = inputs.iter().find(|v| v.len() != size.pixels()) {
-            return Err(NetError::Incompatible {
-                model: self.dir.clone(),
-                message: format!(
-                    "network input of {} values; the model takes {size} = {} values",
-                    bad.len(),
-                    size.pixels()
-                ),
-            });
+            return Err(incompatible(format!(
+                "network input of {} values; the model takes {size} = {} values",
+                bad.len(),
+                size.pixels()
+            )));
         }
-        let dim = self.config.backbone.descriptor_dim();
-        let mut out = Vec::with_capacity(inputs.len());
-        for chunk in inputs.chunks(self.batch) {
-            let buf: Vec<f32> = chunk.iter().flatten().copied().collect();
-            let v = crate::train::forward_values(&self.net, &self.device, buf, chunk.len(), size);
-            out.extend(v.chunks_exact(dim).map(<[f32]>::to_vec));
+        Ok(self.describe_with(inputs.len(), |_, range| {
+            inputs[range].iter().flatten().copied().collect()
+        }))
+    }
+
+    /// Runs every network over `n` items in batches; `input(branch, range)` gives the
+    /// network input of items `range`. Joins the descriptors, each scaled by `1/√nets`.
+    fn describe_with(
+        &self,
+        n: usize,
+        input: impl Fn(&Branch, std::ops::Range<usize>) -> Vec<f32>,
+    ) -> Vec<Vec<f32>> {
+        let scale = 1.0 / (self.nets.len() as f32).sqrt();
+        let mut out = vec![Vec::with_capacity(self.database.dim); n];
+        for branch in &self.nets {
+            let size = branch.backbone.input();
+            let dim = branch.backbone.descriptor_dim();
+            for start in (0..n).step_by(branch.batch) {
+                let range = start..(start + branch.batch).min(n);
+                let len = range.len();
+                let buf = input(branch, range);
+                let v = crate::train::forward_values(&branch.net, &self.device, buf, len, size);
+                for (row, d) in out[start..].iter_mut().zip(v.chunks_exact(dim)) {
+                    if self.nets.len() == 1 {
+                        row.extend_from_slice(d);
+                    } else {
+                        row.extend(d.iter().map(|x| x * scale));
+                    }
+                }
+            }
         }
-        Ok(out)
+        out
     }
 
     /// The zone of a descriptor (the model's score rule).

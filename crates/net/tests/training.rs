@@ -266,6 +266,64 @@ fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras
         .describe(&imgs[5])
         .unwrap();
     assert_eq!(again, clf.describe(&imgs[5]).unwrap());
+    // The model joined with itself: unit descriptors twice as long, the same distances and
+    // zones; a model of another pass is refused, naming what differs.
+    let pair = ZoneClassifier::load(&target.dir)
+        .unwrap()
+        .join(vec![ZoneClassifier::load(&target.dir).unwrap()])
+        .unwrap();
+    assert_eq!(pair.net_count(), 2);
+    let q = pair.describe(&imgs[5]).unwrap();
+    assert_eq!(q.len(), 2 * d[5].len());
+    let norm = q.iter().map(|v| v * v).sum::<f32>().sqrt();
+    assert!((norm - 1.0).abs() < 1e-4, "ensemble descriptor norm {norm}");
+    let (joined, single) = (
+        pair.frame_distances(&q).unwrap(),
+        clf.frame_distances(&d[5]).unwrap(),
+    );
+    assert!(
+        joined
+            .iter()
+            .zip(&single)
+            .all(|(a, b)| (a - b).abs() < 1e-4),
+        "{joined:?} vs {single:?}"
+    );
+    assert_eq!(
+        pair.lookup(&q).unwrap().zone,
+        clf.lookup(&d[5]).unwrap().zone
+    );
+    let moved = tmp.path().join("model_moved");
+    std::fs::create_dir(&moved).unwrap();
+    for entry in std::fs::read_dir(&target.dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_file() {
+            std::fs::copy(&path, moved.join(path.file_name().unwrap())).unwrap();
+        }
+    }
+    let poses = std::fs::read_to_string(moved.join("train_poses.txt")).unwrap();
+    let mut shifted = false;
+    let edited: String = poses
+        .lines()
+        .map(|l| {
+            if shifted || l.starts_with('#') {
+                return format!("{l}\n");
+            }
+            shifted = true;
+            let mut v: Vec<String> = l.split_whitespace().map(str::to_string).collect();
+            v[1] = (v[1].parse::<f64>().unwrap() + 1.0).to_string();
+            format!("{}\n", v.join(" "))
+        })
+        .collect();
+    std::fs::write(moved.join("train_poses.txt"), edited).unwrap();
+    let err = ZoneClassifier::load(&target.dir)
+        .unwrap()
+        .join(vec![ZoneClassifier::load(&moved).unwrap()])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("training poses") && err.contains("model_moved"),
+        "{err}"
+    );
     // New frames of each zone are classified correctly (a separable task).
     let test = write_sequence(&tmp.path().join("test"), 99);
     let preds = clf

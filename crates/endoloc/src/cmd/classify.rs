@@ -4,8 +4,9 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use endoloc_data::{Dataset, Sequence};
+use endoloc_eval::{refuse_existing, write_atomic};
 use endoloc_geometry::Status;
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{FrameResult, Localizer, LocalizerConfig};
@@ -41,8 +42,9 @@ use crate::cmd::localize::test_frame_surf;
 ///
 /// Output: a CSV with one row per frame (frame, chosen zone, raw zone, its distance, nearest
 /// training frame, forward and Viterbi zones, track and smoothed zones and training frames,
-/// truth; then verified and live zones with --verify) to --out or stdout, all zone scores with --scores, and a summary of accuracies
-/// and timing on stderr.
+/// truth; then verified and live zones with --verify) to --out or stdout, all zone scores
+/// with --scores, and a summary of accuracies and timing on stderr. Existing --out and
+/// --scores files are kept unless --force; files are written whole or not at all.
 ///
 /// Examples:
 ///
@@ -51,12 +53,21 @@ use crate::cmd::localize::test_frame_surf;
 ///   endoloc classify --model models/paper50 --seq data/paper/test --filter viterbi > zones.csv
 ///
 ///   endoloc classify --model models/paper50 --seq data/paper/test --verify 5 --out zones.csv
+///
+///   endoloc classify --model models/zone50 --also-model models/track50 --seq data/paper/test
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
     /// Model folder written by `endoloc train`.
     #[arg(long, value_name = "MODEL")]
     model: PathBuf,
+
+    /// Ensemble: join this model too (trained on the same pass with the same zones; repeat the
+    /// flag for more). Each frame's descriptor joins every model's; the squared distance to a
+    /// training frame is the mean of the models'. Maps, camera and filter parameters are
+    /// --model's.
+    #[arg(long, value_name = "MODEL")]
+    also_model: Vec<PathBuf>,
 
     /// Sequence folder (images/ and poses.txt), e.g. DATASET/test.
     #[arg(long, value_name = "DIR")]
@@ -124,6 +135,10 @@ pub struct Args {
     /// Compute device: cpu, cuda, wgpu (GPU builds only) or auto.
     #[arg(long, default_value = "cpu")]
     device: String,
+
+    /// Replace --out and --scores files that already exist.
+    #[arg(long)]
+    force: bool,
 }
 
 /// The classifier alone, or inside a localizer for --verify.
@@ -230,7 +245,21 @@ pub fn run(args: Args) -> Result<()> {
             args.filter
         );
     }
-    let loaded = ZoneClassifier::load_on(&args.model, &args.device)?;
+    // Refuse before the work, not after it.
+    let outputs: Vec<&PathBuf> = args.out.iter().chain(args.scores.iter()).collect();
+    if args.out.is_some() && args.out == args.scores {
+        bail!("--out and --scores name the same file; give two files");
+    }
+    refuse_existing(&outputs, args.force)?;
+    let mut loaded = ZoneClassifier::load_on(&args.model, &args.device)?;
+    if !args.also_model.is_empty() {
+        let others = args
+            .also_model
+            .iter()
+            .map(|dir| ZoneClassifier::load_on(dir, &args.device))
+            .collect::<Result<Vec<_>, _>>()?;
+        loaded = loaded.join(others)?;
+    }
     let source = if args.verify > 0 {
         let map = load_map(&args.model)?;
         let cfg = LocalizerConfig {
@@ -375,7 +404,7 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     match &args.out {
-        Some(p) => std::fs::write(p, &csv).with_context(|| format!("writing {}", p.display()))?,
+        Some(p) => write_atomic(p, csv.as_bytes())?,
         None => print!("{csv}"),
     }
     if let Some(p) = &args.scores {
@@ -391,11 +420,15 @@ pub fn run(args: Args) -> Result<()> {
             }
             s.push('\n');
         }
-        std::fs::write(p, s).with_context(|| format!("writing {}", p.display()))?;
+        write_atomic(p, s.as_bytes())?;
     }
     eprintln!(
-        "model {} ({} zones), sequence {} ({} frames)",
+        "model {}{} ({} zones), sequence {} ({} frames)",
         args.model.display(),
+        args.also_model
+            .iter()
+            .map(|m| format!(" + {}", m.display()))
+            .collect::<String>(),
         clf.zone_count(),
         args.seq.display(),
         n

@@ -4,12 +4,13 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
+use endoloc_eval::{refuse_existing, write_atomic};
 use endoloc_features::{Feature, Keypoint, SurfConfig, draw, io};
 use serde::Serialize;
 
 /// Detect SURF keypoints in an image: print the count, optionally write the keypoints (CSV or
 /// JSON, by extension) and an overlay picture (circles of radius 2.5σ with an orientation line;
-/// green = dark blob, magenta = bright blob).
+/// green = dark blob, magenta = bright blob). Existing output files are kept unless --force.
 ///
 /// Defaults are the paper's MATLAB settings: MetricThreshold 200, NumOctaves 4,
 /// NumScaleLevels 6 (same units as MATLAB/OpenCV on 8-bit images).
@@ -71,6 +72,10 @@ pub struct Args {
     /// Use one thread.
     #[arg(long)]
     single_thread: bool,
+
+    /// Replace --overlay and --keypoints files that already exist.
+    #[arg(long)]
+    force: bool,
 }
 
 /// Validated run settings.
@@ -138,6 +143,23 @@ impl Args {
             }
             None => None,
         };
+        if let Some(p) = &self.overlay
+            && !p
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+        {
+            bail!("--overlay {}: expected a .png file name", p.display());
+        }
+        if self.overlay.is_some() && self.overlay == keypoints.as_ref().map(|(p, _)| p.clone()) {
+            bail!("--overlay and --keypoints name the same file; give two files");
+        }
+        let outputs: Vec<&PathBuf> = self
+            .overlay
+            .iter()
+            .chain(keypoints.iter().map(|(p, _)| p))
+            .collect();
+        refuse_existing(&outputs, self.force)?;
         Ok(Run {
             image: self.image,
             overlay: self.overlay,
@@ -204,10 +226,11 @@ pub fn run(args: Args) -> Result<()> {
     }
     if let Some(path) = &run.overlay {
         let picture = draw::draw_keypoints(&grey, &keypoints);
-        create_parent(path)?;
+        let mut png = Vec::new();
         picture
-            .save(path)
-            .with_context(|| format!("writing overlay {}", path.display()))?;
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .with_context(|| format!("encoding overlay {}", path.display()))?;
+        write_file(path, &png)?;
         println!("wrote {}", path.display());
     }
     Ok(())
@@ -223,5 +246,5 @@ fn create_parent(path: &Path) -> Result<()> {
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     create_parent(path)?;
-    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+    Ok(write_atomic(path, bytes)?)
 }

@@ -170,8 +170,10 @@ pub fn run(args: Args) -> Result<()> {
             exp.out.display()
         );
     }
-    std::fs::create_dir_all(&exp.out)?;
-    std::fs::write(exp.out.join("experiment.toml"), &text)?;
+    std::fs::create_dir_all(&exp.out).with_context(|| format!("creating {}", exp.out.display()))?;
+    let copy = exp.out.join("experiment.toml");
+    endoloc_eval::write_atomic(&copy, text.as_bytes())
+        .with_context(|| format!("writing {}", copy.display()))?;
     let p = |rel: &str| exp.out.join(rel).display().to_string();
     let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<String>>();
     let force: &[&str] = if args.force { &["--force"] } else { &[] };
