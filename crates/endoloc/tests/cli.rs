@@ -131,6 +131,40 @@ fn every_method_and_experiment_writes_its_outputs() {
     ]);
     assert!(err.contains("--force"), "{err}");
 
+    // An ensemble localizes too; baselines refuse it.
+    ok(&[
+        "localize",
+        "--model",
+        &r("model"),
+        "--also-model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--out",
+        &r("run-ensemble"),
+        "--live",
+    ]);
+    let joined = std::fs::read_to_string(st.root.join("run-ensemble/frames.csv")).unwrap();
+    assert_eq!(
+        joined.lines().count(),
+        41,
+        "header + one row per test frame"
+    );
+    let err = fails(&[
+        "localize",
+        "--method",
+        "vo",
+        "--model",
+        &r("model"),
+        "--also-model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--out",
+        &r("run-vo-ensemble"),
+    ]);
+    assert!(err.contains("--also-model"), "{err}");
+
     // Zones with geometric verification against the maps: two more columns, two more
     // summary lines (their accuracy is checked in the localize crate's pipeline test).
     let text = ok(&[

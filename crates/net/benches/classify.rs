@@ -1,6 +1,7 @@
 //! Per-frame cost of zone classification on the CPU: preprocessing a 640×480 frame, the
 //! compact backbone's descriptor, the look-up in a 2610-frame database, and all of it
-//! together; the temporal filters' update per frame; plus one training step of the default schedule (64 pairs over 66 images).
+//! together (for one model and for an ensemble of two); the temporal filters' update per
+//! frame; plus one training step of the default schedule (64 pairs over 66 images).
 //!
 //! Weights are random (timing does not depend on them). Run with
 //! `cargo bench -p endoloc-net --bench classify`.
@@ -99,6 +100,11 @@ fn bench_inference(c: &mut Criterion) {
     });
     g.bench_function("describe_and_lookup", |b| {
         b.iter(|| clf.classify(black_box(&img)).unwrap())
+    });
+    // An ensemble of two models (`ZoneClassifier::join`): two networks, a 256-d look-up.
+    let pair = classifier().join(vec![classifier()]).unwrap();
+    g.bench_function("describe_and_lookup_ensemble_of_2", |b| {
+        b.iter(|| pair.classify(black_box(&img)).unwrap())
     });
     // The live filters' cost per frame, after the look-up: the zone HMM (50 states) and the
     // track filter (2610 training frames × 7 speeds), with the frame distances it needs.

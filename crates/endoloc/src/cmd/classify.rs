@@ -17,7 +17,7 @@ use endoloc_net::{
 };
 use rayon::prelude::*;
 
-use crate::cmd::localize::test_frame_surf;
+use crate::cmd::localize::{load_classifier, test_frame_surf};
 
 /// Classify every frame of a sequence into the model's zones and compare with the truth.
 ///
@@ -251,15 +251,7 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--out and --scores name the same file; give two files");
     }
     refuse_existing(&outputs, args.force)?;
-    let mut loaded = ZoneClassifier::load_on(&args.model, &args.device)?;
-    if !args.also_model.is_empty() {
-        let others = args
-            .also_model
-            .iter()
-            .map(|dir| ZoneClassifier::load_on(dir, &args.device))
-            .collect::<Result<Vec<_>, _>>()?;
-        loaded = loaded.join(others)?;
-    }
+    let loaded = load_classifier(&args.model, &args.also_model, &args.device)?;
     let source = if args.verify > 0 {
         let map = load_map(&args.model)?;
         let cfg = LocalizerConfig {

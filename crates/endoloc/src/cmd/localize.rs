@@ -157,6 +157,10 @@ pub struct LocalizeArgs {
     /// Model folder (trained, with its map).
     #[arg(long, value_name = "DIR")]
     pub model: Option<PathBuf>,
+    /// Ensemble: join this zone model to --model (same training pass and zones; repeat for
+    /// more; `endoloc classify --also-model` shows what it gains). The map is --model's.
+    #[arg(long, value_name = "DIR")]
+    pub also_model: Vec<PathBuf>,
     /// OffsetNet model folder (--method offsetnet).
     #[arg(long, value_name = "DIR")]
     pub regressor: Option<PathBuf>,
@@ -222,6 +226,21 @@ pub struct LocalizeArgs {
     pub force: bool,
 }
 
+/// Loads a zone model on `device`, joined with `also` into an ensemble
+/// ([`ZoneClassifier::join`]) when that is not empty.
+pub fn load_classifier(model: &Path, also: &[PathBuf], device: &str) -> Result<ZoneClassifier> {
+    let load = |dir: &Path| {
+        ZoneClassifier::load_on(dir, device)
+            .with_context(|| format!("loading model {}", dir.display()))
+    };
+    let first = load(model)?;
+    if also.is_empty() {
+        return Ok(first);
+    }
+    let others = also.iter().map(|d| load(d)).collect::<Result<Vec<_>>>()?;
+    Ok(first.join(others)?)
+}
+
 /// Runs `endoloc localize`.
 pub fn run_localize(args: LocalizeArgs) -> Result<()> {
     let outputs = ["trajectory.txt", "frames.csv"];
@@ -238,11 +257,13 @@ pub fn run_localize(args: LocalizeArgs) -> Result<()> {
         );
     }
     if args.method != LocalizeMethod::Endoloc {
+        if !args.also_model.is_empty() {
+            bail!("--also-model joins zone models for --method endoloc only");
+        }
         return run_baseline(&args);
     }
     let model = args.model.as_deref().context("--model is required")?;
-    let classifier = ZoneClassifier::load(model)
-        .with_context(|| format!("loading model {}", model.display()))?;
+    let classifier = load_classifier(model, &args.also_model, "cpu")?;
     let map = load_map(model)?;
     let seq = Sequence::open(&args.seq)?;
     let camera = dataset_camera(&args.seq)?;
