@@ -21,10 +21,11 @@ pub const DATABASE_FILE: &str = "database.bin";
 const MAGIC: &[u8; 8] = b"EDLCDB01";
 
 /// How a zone's score is computed from the distances to its descriptors.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(tag = "rule", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ScoreRule {
-    /// Distance to the nearest descriptor of the zone (1-nearest neighbour).
+    /// Distance to the nearest descriptor of the zone (1-nearest neighbour; the default).
+    #[default]
     Nearest,
     /// Mean distance to the `k` nearest descriptors of the zone (fewer if the zone is
     /// smaller).
@@ -32,12 +33,6 @@ pub enum ScoreRule {
         /// How many nearest descriptors to average.
         k: usize,
     },
-}
-
-impl Default for ScoreRule {
-    fn default() -> Self {
-        ScoreRule::Nearest
-    }
 }
 
 /// The zone a descriptor belongs to, with the evidence.

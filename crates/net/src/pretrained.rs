@@ -97,10 +97,10 @@ pub fn load_pretrained(net: &mut EmbeddingNet, path: &Path) -> Result<Pretrained
         .map(|(n, _)| n.clone())
         .filter(|n| !n.ends_with(CONV1))
         .collect();
-    if let Some(data) = conv1 {
-        if set_conv1(net, data, &mut report).is_err() {
-            report.skipped.push(CONV1.into());
-        }
+    if let Some(data) = conv1
+        && set_conv1(net, data, &mut report).is_err()
+    {
+        report.skipped.push(CONV1.into());
     }
     if report.applied == 0 {
         return Err(NetError::weights(
