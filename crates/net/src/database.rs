@@ -147,13 +147,7 @@ impl DescriptorDatabase {
         let dist: Vec<f32> = self
             .descriptors
             .chunks_exact(self.dim)
-            .map(|r| {
-                r.iter()
-                    .zip(q)
-                    .map(|(a, b)| (a - b) * (a - b))
-                    .sum::<f32>()
-                    .sqrt()
-            })
+            .map(|r| squared_distance(r, q).sqrt())
             .collect();
         let (best_row, &best) = dist
             .iter()
@@ -224,12 +218,7 @@ impl DescriptorDatabase {
             .chunks_exact(self.dim)
             .zip(&self.frame_of_row)
         {
-            let d = r
-                .iter()
-                .zip(q)
-                .map(|(a, b)| (a - b) * (a - b))
-                .sum::<f32>()
-                .sqrt();
+            let d = squared_distance(r, q).sqrt();
             if d < out[f] {
                 out[f] = d;
             }
@@ -292,6 +281,32 @@ impl DescriptorDatabase {
     }
 }
 
+/// Squared Euclidean distance between two descriptors of equal length.
+///
+/// Summed in eight independent lanes, so that the compiler keeps the loop in SIMD registers
+/// (a single running `f32` sum has to be added in order and stays scalar): about 4× faster on
+/// 128-d rows (`cargo bench -p endoloc-net --bench classify -- lookup_2610`). The lanes change
+/// the order of the additions, not the result beyond rounding.
+fn squared_distance(a: &[f32], b: &[f32]) -> f32 {
+    const LANES: usize = 8;
+    debug_assert_eq!(a.len(), b.len());
+    let mut acc = [0.0f32; LANES];
+    let (a_head, a_tail) = a.split_at(a.len() - a.len() % LANES);
+    let (b_head, b_tail) = b.split_at(a_head.len());
+    for (x, y) in a_head.chunks_exact(LANES).zip(b_head.chunks_exact(LANES)) {
+        for l in 0..LANES {
+            let d = x[l] - y[l];
+            acc[l] += d * d;
+        }
+    }
+    let tail: f32 = a_tail
+        .iter()
+        .zip(b_tail)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum();
+    acc.iter().sum::<f32>() + tail
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -305,6 +320,26 @@ mod tests {
             vec![0, 0, 1, 1],
         )
         .unwrap()
+    }
+
+    #[test]
+    fn squared_distance_matches_the_plain_sum_for_every_length() {
+        // Lengths below, at and past the lane count, with a tail, and the 128-d descriptor.
+        for n in [0usize, 1, 7, 8, 13, 128, 131] {
+            let a: Vec<f32> = (0..n).map(|i| (i as f32 * 0.37).sin()).collect();
+            let b: Vec<f32> = (0..n).map(|i| (i as f32 * 0.11).cos()).collect();
+            let plain: f64 = a
+                .iter()
+                .zip(&b)
+                .map(|(x, y)| f64::from(x - y) * f64::from(x - y))
+                .sum();
+            let fast = f64::from(squared_distance(&a, &b));
+            assert!(
+                (fast - plain).abs() <= 1e-5 * plain.max(1.0),
+                "n = {n}: {fast} vs {plain}"
+            );
+        }
+        assert_eq!(squared_distance(&[1.0, 2.0, 3.0], &[1.0, 0.0, 7.0]), 20.0);
     }
 
     #[test]
