@@ -189,7 +189,7 @@ fn every_method_and_experiment_writes_its_outputs() {
         "{header}"
     );
     assert!(
-        header.ends_with(",truth_zone,verified_zone,live_zone"),
+        header.ends_with(",smooth_frame,truth_frame,truth_zone,verified_zone,live_zone"),
         "{header}"
     );
     assert_eq!(zones.lines().count(), 41, "header + one row per test frame");
@@ -256,6 +256,52 @@ fn every_method_and_experiment_writes_its_outputs() {
         zones_only(&std::fs::read_to_string(st.root.join("zones_joined.csv")).unwrap()),
         zones_only(&replaced)
     );
+    // Descriptors for Python: a float32 .npy of frames × descriptor length, unit rows.
+    let err = fails(&[
+        "classify",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--out",
+        &r("same.npy"),
+        "--descriptors",
+        &r("same.npy"),
+    ]);
+    assert!(err.contains("different files"), "{err}");
+    ok(&[
+        "classify",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--limit",
+        "5",
+        "--out",
+        &r("zones_desc.csv"),
+        "--descriptors",
+        &r("desc.npy"),
+    ]);
+    let npy = std::fs::read(st.root.join("desc.npy")).unwrap();
+    assert_eq!(&npy[..8], b"\x93NUMPY\x01\x00");
+    let header_len = u16::from_le_bytes([npy[8], npy[9]]) as usize;
+    let header = std::str::from_utf8(&npy[10..10 + header_len]).unwrap();
+    assert!(header.contains("'descr': '<f4'"), "{header}");
+    let dim: usize = header
+        .split("'shape': (5, ")
+        .nth(1)
+        .and_then(|t| t.split(')').next())
+        .and_then(|d| d.parse().ok())
+        .unwrap_or_else(|| panic!("shape (5, D) in {header}"));
+    let values: Vec<f32> = npy[10 + header_len..]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    assert_eq!(values.len(), 5 * dim);
+    for row in values.chunks(dim) {
+        let norm = row.iter().map(|v| v * v).sum::<f32>().sqrt();
+        assert!((norm - 1.0).abs() < 1e-3, "descriptor norm {norm}");
+    }
     // Without maps, --verify says what to run first.
     let bare = st.root.join("model_without_map");
     std::fs::create_dir(&bare).unwrap();

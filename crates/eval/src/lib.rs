@@ -21,6 +21,7 @@ pub mod experiment_plots;
 pub mod frames_csv;
 pub mod html;
 pub mod metrics;
+pub mod npy;
 pub mod output;
 pub mod plots;
 pub mod report;

@@ -32,7 +32,7 @@ use crate::cmd::localize::{load_classifier, test_frame_surf};
 ///     forward–backward over the whole video (offline).
 ///
 /// The truth zone of a frame is the zone of the nearest training pose (position, with 10° of
-/// orientation counting as 1 mm).
+/// orientation counting as 1 mm); that training frame is the `truth_frame` column.
 ///
 /// With --verify K (and the model's maps, from `endoloc map`), each frame is also checked
 /// geometrically: its SURF features are registered in its K best zones, best first, and the
@@ -42,9 +42,10 @@ use crate::cmd::localize::{load_classifier, test_frame_surf};
 ///
 /// Output: a CSV with one row per frame (frame, chosen zone, raw zone, its distance, nearest
 /// training frame, forward and Viterbi zones, track and smoothed zones and training frames,
-/// truth; then verified and live zones with --verify) to --out or stdout, all zone scores
-/// with --scores, and a summary of accuracies and timing on stderr. Existing --out and
-/// --scores files are kept unless --force; files are written whole or not at all.
+/// truth frame and zone; then verified and live zones with --verify) to --out or stdout, all
+/// zone scores with --scores, every frame's descriptor with --descriptors (a NumPy `.npy`
+/// array), and a summary of accuracies and timing on stderr. Existing --out, --scores and
+/// --descriptors files are kept unless --force; files are written whole or not at all.
 ///
 /// Examples:
 ///
@@ -55,6 +56,8 @@ use crate::cmd::localize::{load_classifier, test_frame_surf};
 ///   endoloc classify --model models/paper50 --seq data/paper/test --verify 5 --out zones.csv
 ///
 ///   endoloc classify --model models/zone50 --also-model models/track50 --seq data/paper/test
+///
+///   endoloc classify --model models/paper50 --seq data/paper/train --descriptors train.npy --out train.csv
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -85,6 +88,12 @@ pub struct Args {
     /// Write every zone's score per frame (CSV: frame, then one column per zone).
     #[arg(long, value_name = "CSV")]
     scores: Option<PathBuf>,
+
+    /// Write every frame's descriptor here as a NumPy array (`.npy`, float32, frames ×
+    /// descriptor length, row i = frame i; an ensemble's joined descriptor): for study in
+    /// Python (`numpy.load`). Run on the training pass for the database's descriptors.
+    #[arg(long, value_name = "NPY")]
+    descriptors: Option<PathBuf>,
 
     /// Only the first N frames.
     #[arg(long)]
@@ -136,7 +145,7 @@ pub struct Args {
     #[arg(long, default_value = "cpu")]
     device: String,
 
-    /// Replace --out and --scores files that already exist.
+    /// Replace --out, --scores and --descriptors files that already exist.
     #[arg(long)]
     force: bool,
 }
@@ -246,9 +255,14 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     // Refuse before the work, not after it.
-    let outputs: Vec<&PathBuf> = args.out.iter().chain(args.scores.iter()).collect();
-    if args.out.is_some() && args.out == args.scores {
-        bail!("--out and --scores name the same file; give two files");
+    let outputs: Vec<&PathBuf> = args
+        .out
+        .iter()
+        .chain(&args.scores)
+        .chain(&args.descriptors)
+        .collect();
+    if (1..outputs.len()).any(|i| outputs[..i].contains(&outputs[i])) {
+        bail!("--out, --scores and --descriptors must name different files");
     }
     refuse_existing(&outputs, args.force)?;
     let loaded = load_classifier(&args.model, &args.also_model, &args.device)?;
@@ -332,10 +346,15 @@ pub fn run(args: Args) -> Result<()> {
         fixed_lag(&frame_dist, &zone_of_frame, &track_cfg, args.track_lag)?
     };
     let smoothed = smooth(&frame_dist, &zone_of_frame, &track_cfg)?;
-    let truth: Vec<Option<usize>> = {
-        let poses: Vec<_> = seq.poses[..n].iter().map(|p| p.pose).collect();
-        clf.zones().truth_zones(clf.train_poses(), &poses)
-    };
+    // The truth: the nearest training frame and its zone (ZoneTable::truth_zone's rule).
+    let truth_frame: Vec<Option<usize>> = seq.poses[..n]
+        .par_iter()
+        .map(|p| clf.nearest_train_frame(&p.pose))
+        .collect();
+    let truth: Vec<Option<usize>> = truth_frame
+        .iter()
+        .map(|f| f.and_then(|f| zone_of_frame.get(f).copied()))
+        .collect();
 
     let verified = match &source {
         Classifier::Verifying(l) => {
@@ -346,7 +365,7 @@ pub fn run(args: Args) -> Result<()> {
     };
 
     let mut csv = String::from(
-        "frame,zone,raw_zone,distance,nearest_train_frame,forward_zone,viterbi_zone,track_zone,track_frame,smooth_zone,smooth_frame,truth_zone",
+        "frame,zone,raw_zone,distance,nearest_train_frame,forward_zone,viterbi_zone,track_zone,track_frame,smooth_zone,smooth_frame,truth_frame,truth_zone",
     );
     csv.push_str(if verified.is_some() {
         ",verified_zone,live_zone\n"
@@ -367,7 +386,7 @@ pub fn run(args: Args) -> Result<()> {
         let t = truth[i];
         let _ = write!(
             csv,
-            "{i},{chosen},{},{:.5},{},{},{},{},{},{},{},{}",
+            "{i},{chosen},{},{:.5},{},{},{},{},{},{},{},{},{}",
             preds[i].zone,
             preds[i].distance,
             preds[i].nearest_frame,
@@ -377,6 +396,7 @@ pub fn run(args: Args) -> Result<()> {
             tracked[i].frame,
             smoothed[i].zone,
             smoothed[i].frame,
+            truth_frame[i].map_or(String::new(), |f| f.to_string()),
             t.map_or(String::new(), |t| t.to_string())
         );
         if let Some(v) = &verified {
@@ -413,6 +433,10 @@ pub fn run(args: Args) -> Result<()> {
             s.push('\n');
         }
         write_atomic(p, s.as_bytes())?;
+    }
+    if let Some(p) = &args.descriptors {
+        let rows: Vec<Vec<f32>> = preds.iter().map(|pr| pr.descriptor.clone()).collect();
+        endoloc_eval::npy::write_npy_rows(p, &rows)?;
     }
     eprintln!(
         "model {}{} ({} zones), sequence {} ({} frames)",
