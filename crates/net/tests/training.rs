@@ -522,3 +522,40 @@ fn track_pairs_place_a_frame_along_the_pass_more_finely_than_zone_pairs() {
         errors[1]
     );
 }
+
+/// The loss of every epoch, bit for bit.
+fn loss_bits(f: &endoloc_net::train::Fitted) -> Vec<u32> {
+    f.history.iter().map(|r| r.loss.to_bits()).collect()
+}
+
+#[test]
+fn same_seed_trains_the_same_network_bit_for_bit_on_any_thread_count() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = write_sequence(&tmp.path().join("train"), 3);
+    let zones = zones_of(&seq);
+    let mut cfg = tiny_config(6);
+    cfg.augment = AugmentConfig::default();
+    let cache = ImageCache::from_sequence(&seq, cfg.backbone.input(), &mut |_| {}).unwrap();
+    let run = |cfg: &TrainConfig| fit(cfg, &cache, &zones, None, None, false, &mut |_| {}).unwrap();
+
+    let a = run(&cfg);
+    let b = run(&cfg);
+    assert_eq!(loss_bits(&a), loss_bits(&b), "same seed, same thread pool");
+
+    // The matrix products split their work over threads but not their sums: one thread
+    // gives the same bits as the default pool.
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| run(&cfg));
+    assert_eq!(
+        loss_bits(&a),
+        loss_bits(&one),
+        "one thread against the default pool"
+    );
+
+    let mut other = cfg.clone();
+    other.seed += 1;
+    assert_ne!(loss_bits(&a), loss_bits(&run(&other)), "another seed");
+}
