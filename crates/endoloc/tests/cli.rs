@@ -554,6 +554,22 @@ fn pretrain_chains_colons_and_writes_start_weights_that_train_accepts() {
         "--out",
         &s(&tmp.path().join("model")),
     ]);
+    // So do the shipped ones, and the model remembers where it started.
+    ok(&[
+        "train",
+        "--data",
+        &s(&out.join("colon-202")),
+        "--zones",
+        "4",
+        "--epochs",
+        "1",
+        "--pretrained",
+        "builtin",
+        "--out",
+        &s(&tmp.path().join("model-builtin")),
+    ]);
+    let toml = std::fs::read_to_string(tmp.path().join("model-builtin/model.toml")).unwrap();
+    assert!(toml.contains("pretrained = \"builtin\""), "{toml}");
     let err = fails(&[
         "pretrain",
         "--out",

@@ -8,6 +8,12 @@
 //! (torchvision's 1000-class `fc`, the auxiliary classifiers) are skipped and reported. For
 //! torchvision's weights build the backbone with `branch3_kernel = 3`: torchvision kept a 3×3
 //! kernel in the "5×5" branch. Any model's own `weights.safetensors` also loads (fine-tuning).
+//!
+//! **Built-in weights** ([`BUILTIN`], `--pretrained builtin`): the default compact backbone
+//! pretrained by `endoloc pretrain` on four simulated colons (seeds 101–404, two passes each,
+//! none of them the `paper` preset's colon), shipped inside the binary
+//! (`crates/net/weights/`, provenance in its README). They fit the default compact backbone
+//! only; any other network is refused with the architecture they need.
 
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
@@ -35,11 +41,29 @@ fn not_conv1(path: &str, _container: &str) -> bool {
     !path.ends_with(CONV1)
 }
 
-/// Loads the tensors of `path` that fit `net` (see the module documentation).
+/// The name that stands for the built-in weights wherever a weights path is taken (a file of
+/// that name is not looked for: write `./builtin` for one).
+pub const BUILTIN: &str = "builtin";
+
+/// The built-in weights: safetensors of the default compact backbone (see the module
+/// documentation).
+const BUILTIN_WEIGHTS: &[u8] = include_bytes!("../weights/compact-sim4.safetensors");
+
+/// Whether `path` names the built-in weights.
+pub fn is_builtin(path: &Path) -> bool {
+    path.as_os_str() == BUILTIN
+}
+
+/// Loads the tensors of `path` that fit `net` (see the module documentation); the path
+/// [`BUILTIN`] loads the built-in weights.
 ///
 /// # Errors
-/// [`NetError::Weights`] when the file cannot be read or nothing in it fits the network.
+/// [`NetError::Weights`] when the file cannot be read or nothing in it fits the network, or
+/// for the built-in weights, when the network is not the default compact backbone.
 pub fn load_pretrained(net: &mut EmbeddingNet, path: &Path) -> Result<PretrainedReport, NetError> {
+    if is_builtin(path) {
+        return load_builtin(net);
+    }
     if !path.is_file() {
         return Err(NetError::weights(path, "file not found"));
     }
@@ -109,6 +133,52 @@ pub fn load_pretrained(net: &mut EmbeddingNet, path: &Path) -> Result<Pretrained
         ));
     }
     Ok(report)
+}
+
+/// Loads the built-in weights; every tensor of `net` must be in them with its shape.
+fn load_builtin(net: &mut EmbeddingNet) -> Result<PretrainedReport, NetError> {
+    let refuse = |why: String| {
+        NetError::weights(
+            BUILTIN,
+            format!(
+                "the built-in weights fit the default compact backbone only \
+                 (`BackboneConfig::default()`: 256×192 input, stem stride 4, 128-d); {why}"
+            ),
+        )
+    };
+    if !matches!(net, EmbeddingNet::Compact(_)) {
+        return Err(refuse("this network is GoogLeNet".into()));
+    }
+    let mut store = SafetensorsStore::from_bytes(Some(BUILTIN_WEIGHTS.to_vec()))
+        .allow_partial(true)
+        .skip_enum_variants(true)
+        .validate(false);
+    let r = net
+        .load_from(&mut store)
+        .map_err(|e| NetError::weights(BUILTIN, e))?;
+    if !r.missing.is_empty() || !r.errors.is_empty() || !r.unused.is_empty() {
+        let names: Vec<String> = r
+            .missing
+            .iter()
+            .map(|(n, _)| format!("missing {n}"))
+            .chain(r.errors.iter().map(|e| format!("{e:?}")))
+            .chain(r.unused.iter().map(|n| format!("unused {n}")))
+            .take(3)
+            .collect();
+        return Err(refuse(format!(
+            "this network differs ({}{})",
+            names.join("; "),
+            if r.missing.len() + r.errors.len() + r.unused.len() > 3 {
+                "; …"
+            } else {
+                ""
+            }
+        )));
+    }
+    Ok(PretrainedReport {
+        applied: r.applied.len(),
+        ..PretrainedReport::default()
+    })
 }
 
 fn conv1_tensor<S: ModuleStore>(store: &mut S, path: &Path) -> Result<Option<TensorData>, NetError>
@@ -194,5 +264,34 @@ mod tests {
         assert!(diff < 1e-6, "{diff}");
         let err = load_pretrained(&mut b, &dir.path().join("nope.pth")).unwrap_err();
         assert!(err.to_string().contains("not found"));
+
+        // The built-in weights are for the default backbone only, and say so.
+        let err = load_pretrained(&mut b, Path::new(BUILTIN)).unwrap_err();
+        assert!(
+            err.to_string().contains("default compact backbone"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn builtin_weights_fill_every_tensor_of_the_default_backbone() {
+        let device = crate::device::cpu();
+        device.seed(1);
+        let fresh = BackboneConfig::default().init(&device);
+        let mut net = fresh.clone();
+        let r = load_pretrained(&mut net, Path::new(BUILTIN)).unwrap();
+        assert!(
+            r.applied >= 10 && r.missing.is_empty() && r.skipped.is_empty(),
+            "{r:?}"
+        );
+        // Loaded, not left at the random start: the descriptors change.
+        let x = Tensor::<4>::random(
+            [1, 1, 192, 256],
+            burn::tensor::Distribution::Default,
+            &device,
+        );
+        let (ya, yb) = (fresh.valid().forward(x.clone()), net.valid().forward(x));
+        let diff: f32 = (ya - yb).abs().max().into_scalar();
+        assert!(diff > 1e-3, "{diff}");
     }
 }

@@ -25,7 +25,7 @@ use crate::cmd::demo::{parse, stage};
 ///   schedule = "fast"                  # fast | paper
 ///   epochs = 0                         # 0 = the schedule's
 ///   seed = 0
-///   pretrained = "models/pretrain/weights.safetensors"   # optional start weights
+///   pretrained = "builtin"   # optional start weights: a file, or the shipped ones
 ///   pairs = "zone"                     # zone (the paper's) | track (`endoloc train --pairs`)
 ///   [map]
 ///   images_per_zone = 8

@@ -164,8 +164,10 @@ pub struct Args {
 
     /// Start from these weights: a safetensors file or a PyTorch state dict (.pt/.pth);
     /// GoogLeNet takes torchvision's names (use branch3_kernel = 3 in a --config file for
-    /// torchvision's weights).
-    #[arg(long, value_name = "FILE")]
+    /// torchvision's weights). `builtin`: the weights shipped with endoloc, the default
+    /// compact backbone pretrained on four simulated colons (`endoloc pretrain`; what it
+    /// gains: README, "Pretraining").
+    #[arg(long, value_name = "FILE|builtin")]
     pretrained: Option<PathBuf>,
 
     /// Worker threads (default: all cores).
