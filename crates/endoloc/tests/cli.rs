@@ -540,34 +540,27 @@ fn pretrain_chains_colons_and_writes_start_weights_that_train_accepts() {
     again.push("--force");
     let text = ok(&again);
     assert!(text.contains("reusing"), "{text}");
-    // The weights start a model on other data.
-    ok(&[
-        "train",
-        "--data",
-        &s(&out.join("colon-202")),
-        "--zones",
-        "4",
-        "--epochs",
-        "1",
-        "--pretrained",
-        &s(&out.join("weights.safetensors")),
-        "--out",
-        &s(&tmp.path().join("model")),
-    ]);
-    // So do the shipped ones, and the model remembers where it started.
-    ok(&[
-        "train",
-        "--data",
-        &s(&out.join("colon-202")),
-        "--zones",
-        "4",
-        "--epochs",
-        "1",
-        "--pretrained",
-        "builtin",
-        "--out",
-        &s(&tmp.path().join("model-builtin")),
-    ]);
+    // The weights start a model on other data; so do the shipped ones, and the model
+    // remembers where it started.
+    let data = s(&out.join("colon-202"));
+    let train_from = |weights: &str, model: &str| {
+        let model = s(&tmp.path().join(model));
+        ok(&[
+            "train",
+            "--data",
+            &data,
+            "--zones",
+            "4",
+            "--epochs",
+            "1",
+            "--pretrained",
+            weights,
+            "--out",
+            &model,
+        ])
+    };
+    train_from(&s(&out.join("weights.safetensors")), "model");
+    train_from("builtin", "model-builtin");
     let toml = std::fs::read_to_string(tmp.path().join("model-builtin/model.toml")).unwrap();
     assert!(toml.contains("pretrained = \"builtin\""), "{toml}");
     let err = fails(&[

@@ -12,6 +12,22 @@ pub fn cpu() -> Device {
     Device::flex()
 }
 
+/// Runs `init` right after seeding the backend's random generator with `seed`, while no other
+/// seeded initialisation of this crate runs.
+///
+/// The backend's generator is one per process: two trainings started at once (threads of a
+/// test binary, or a host program) would otherwise draw each other's numbers and the same
+/// seed would not give the same initial weights. Code outside this crate that draws from
+/// the backend's generator at the same time can still interleave.
+pub fn seeded<T>(device: &Device, seed: u64, init: impl FnOnce() -> T) -> T {
+    static SEEDING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _guard = SEEDING
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    device.seed(seed);
+    init()
+}
+
 /// Names of the devices this build can use, for help texts.
 pub fn available() -> Vec<&'static str> {
     #[allow(unused_mut)]

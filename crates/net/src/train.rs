@@ -631,10 +631,7 @@ pub fn fit(
     };
 
     // Fresh start or resume.
-    let mut net = {
-        device.seed(cfg.seed);
-        cfg.backbone.init(&device)
-    };
+    let mut net = crate::device::seeded(&device, cfg.seed, || cfg.backbone.init(&device));
     if let Some(p) = &cfg.pretrained {
         let r = crate::pretrained::load_pretrained(&mut net, p)?;
         tracing::info!(

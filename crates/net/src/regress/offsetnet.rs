@@ -336,8 +336,7 @@ pub fn train_offsetnet(
         .map(|(i, d)| offset_between(&data.poses[i], &data.poses[partner(i, d)]))
         .collect();
     let nz = PoseNormalizer::fit(&offsets)?;
-    device.seed(cfg.seed);
-    let mut net = OffsetNetNet::new(cfg, &device)?;
+    let mut net = crate::device::seeded(&device, cfg.seed, || OffsetNetNet::new(cfg, &device))?;
     let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
 
     let sched = &cfg.schedule;

@@ -252,8 +252,7 @@ pub fn train_posenet(
     let (train_frames, held) = split_holdout(data.len(), cfg.holdout_every);
     let train_poses: Vec<Pose> = train_frames.iter().map(|&f| data.poses[f]).collect();
     let nz = PoseNormalizer::fit(&train_poses)?;
-    device.seed(cfg.seed);
-    let mut net = PoseNetNet::new(cfg, &device)?;
+    let mut net = crate::device::seeded(&device, cfg.seed, || PoseNetNet::new(cfg, &device))?;
     let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
 
     let sched = &cfg.schedule;
