@@ -17,11 +17,13 @@ use crate::cmd::demo::{parse, stage};
 /// (`endoloc train --also-seq test`), colon after colon, each starting from the previous
 /// one's weights. The colons share nothing with your data but the simulator.
 ///
-/// Measured on the `paper` preset (50 zones, test pass; exact / within ±1 zone per frame):
-/// no pretraining 66.2 / 84.8 %, one colon 71.5 / 89.9 %, two 74.9 / 90.5 %, three
-/// 77.5 / 93.3 %, four (the default) 80.4 / 96.5 %, eight 78.8 / 96.4 % (the gain stops at
-/// four). Each colon costs about 9 minutes on 2 cores (simulation 2, training 7): about 37
-/// minutes for the default four.
+/// Measured on the `paper` preset (50 zones, test pass; exact / within ±1 zone per frame) with
+/// tilt augmentation ±12°: no pretraining 66.2 / 84.8 %, one colon 71.5 / 89.9 %, two
+/// 74.9 / 90.5 %, three 77.5 / 93.3 %, four (the default) 80.4 / 96.5 %, eight 78.8 / 96.4 %
+/// (the gain stops at four). At today's ±28° it adds 2.5 points to zone pairs and 16 to track
+/// pairs with `--near-fraction 0.1` (62.5 → 78.6 %). Each colon costs about 9–15 minutes on 2
+/// cores (simulation 2–3, training 7–12). The result of the default run ships with endoloc:
+/// `endoloc train --pretrained builtin`.
 ///
 /// Output: OUT/colon-SEED/ (each dataset), OUT/model-SEED/ (each model) and
 /// OUT/weights.safetensors (the last model's weights). A colon or model already in OUT is
