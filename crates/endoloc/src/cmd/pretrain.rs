@@ -59,6 +59,14 @@ pub struct Args {
     /// --pairs`; the test pass's frames then pair by their place along the training pass).
     #[arg(long, value_name = "RULE")]
     pairs: Option<String>,
+    /// Track pairs: fraction of negatives near the positive (see `endoloc train
+    /// --near-fraction`; 0.1 gives the best track-pair models).
+    #[arg(long, value_name = "F")]
+    near_fraction: Option<f32>,
+    /// Start weights of the first colon (a `.safetensors` or `.pt` file, or `builtin`):
+    /// continue from an earlier pretraining, e.g. with other pairs. Default: random weights.
+    #[arg(long, value_name = "WEIGHTS")]
+    pretrained: Option<String>,
     /// Frames of each pass (default: the preset's).
     #[arg(long, value_name = "N")]
     frames: Option<usize>,
@@ -90,7 +98,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         None => None,
     };
-    let mut previous: Option<PathBuf> = None;
+    let mut previous: Option<String> = args.pretrained.clone();
     for i in 0..args.colons {
         let seed = args.seed + 101 * i as u64;
         let data = args.out.join(format!("colon-{seed}"));
@@ -140,7 +148,7 @@ pub fn run(args: Args) -> Result<()> {
                 "--force",
             ]);
             if let Some(w) = &previous {
-                train.extend(strings(&["--pretrained", &path(w)]));
+                train.extend(strings(&["--pretrained", w]));
             }
             if let Some(e) = args.epochs {
                 train.extend(strings(&["--epochs", &e.to_string()]));
@@ -148,12 +156,15 @@ pub fn run(args: Args) -> Result<()> {
             if let Some(rule) = &args.pairs {
                 train.extend(strings(&["--pairs", rule]));
             }
+            if let Some(f) = args.near_fraction {
+                train.extend(strings(&["--near-fraction", &f.to_string()]));
+            }
             stage(&format!("{title}: train"), &train);
             cmd::train::run(parse(&train)?)?;
         }
-        previous = Some(model.join("weights.safetensors"));
+        previous = Some(path(&model.join("weights.safetensors")));
     }
-    let last = previous.context("no colon was trained")?;
+    let last = PathBuf::from(previous.context("no colon was trained")?);
     let tmp = args.out.join("weights.safetensors.partial");
     std::fs::copy(&last, &tmp)
         .with_context(|| format!("copying {} to {}", last.display(), tmp.display()))?;
