@@ -563,6 +563,39 @@ fn pretrain_chains_colons_and_writes_start_weights_that_train_accepts() {
     train_from("builtin", "model-builtin");
     let toml = std::fs::read_to_string(tmp.path().join("model-builtin/model.toml")).unwrap();
     assert!(toml.contains("pretrained = \"builtin\""), "{toml}");
+    // A pretraining continues from given weights with other pairs.
+    let track = tmp.path().join("pretrain-track");
+    ok(&[
+        "pretrain",
+        "--out",
+        &s(&track),
+        "--preset",
+        "small",
+        "--colons",
+        "1",
+        "--frames",
+        "40",
+        "--size",
+        "160x120",
+        "--zones",
+        "4",
+        "--epochs",
+        "1",
+        "--pretrained",
+        "builtin",
+        "--pairs",
+        "track",
+        "--near-fraction",
+        "0.1",
+    ]);
+    let toml = std::fs::read_to_string(track.join("model-101/model.toml")).unwrap();
+    for want in [
+        "pretrained = \"builtin\"",
+        "rule = \"track\"",
+        "near_fraction = 0.1",
+    ] {
+        assert!(toml.contains(want), "{want} missing:\n{toml}");
+    }
     let err = fails(&[
         "pretrain",
         "--out",
