@@ -26,6 +26,7 @@
 //! and renamed into place.
 
 mod batch;
+mod fit;
 pub mod io;
 pub mod loss;
 pub mod normalize;
@@ -33,6 +34,7 @@ pub mod offsetnet;
 pub mod posenet;
 pub mod view;
 
+pub use fit::RegressNetwork;
 pub use io::{RegressMethod, RegressModelFile};
 pub use loss::{posenet_loss, posenet_loss_sample};
 pub use normalize::PoseNormalizer;

@@ -19,29 +19,27 @@
 //! reference (e.g. the zone's middle frame) can be up to half a zone away.
 
 use super::batch::{
-    clean_batch, draw_frames, images_tensor, is_held, query_batch, rows_tensor, scalar,
-    split_holdout,
+    clean_batch, draw_frames, images_tensor, is_held, query_batch, rows_tensor, split_holdout,
 };
+use super::fit::{RegressNetwork, fit, init_backbone, load_model};
 use super::io::{self, RegressMethod, RegressModelFile};
 use super::posenet::mean_errors;
 use super::view::rotated_rotation;
 use super::{
-    PoseHead, PoseNormalizer, RegressConfig, RegressEpoch, RegressPhase, RegressProgress,
-    TrainingSet, check_frame, posenet_loss, scaled_features, tensor_rows,
+    PoseHead, PoseNormalizer, RegressConfig, RegressEpoch, RegressProgress, TrainingSet,
+    check_frame, posenet_loss, scaled_features, tensor_rows,
 };
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
 use crate::preprocess::{InputSize, network_input};
 use burn::module::Module;
-use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Device, Tensor};
 use endoloc_geometry::Pose;
 use endoloc_geometry::pose::pose_from_parts;
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::path::Path;
-use std::time::Instant;
 
 /// The relative pose `T_ref⁻¹ · T_query` (the query camera in the reference camera's frame,
 /// mm).
@@ -64,23 +62,18 @@ pub struct OffsetNetNet {
     pub head: PoseHead,
 }
 
-impl OffsetNetNet {
-    /// A fresh network for `cfg` on `device` (seed the device first for reproducible
-    /// weights; the backbone comes from `cfg.init_backbone` when set).
-    ///
-    /// # Errors
-    /// [`NetError::Weights`] when `cfg.init_backbone` cannot be loaded.
-    pub fn new(cfg: &RegressConfig, device: &Device) -> Result<Self, NetError> {
-        let backbone = match &cfg.init_backbone {
-            Some(p) => crate::model::load_weights(&cfg.backbone, p, device)?,
-            None => cfg.backbone.init(device),
-        };
+impl RegressNetwork for OffsetNetNet {
+    const METHOD: RegressMethod = RegressMethod::Offsetnet;
+
+    fn new(cfg: &RegressConfig, device: &Device) -> Result<Self, NetError> {
         Ok(OffsetNetNet {
-            backbone,
+            backbone: init_backbone(cfg, device)?,
             head: PoseHead::new(3 * cfg.backbone.descriptor_dim(), cfg.hidden, device),
         })
     }
+}
 
+impl OffsetNetNet {
     /// Normalised offset translations and raw relative quaternions of a batch of pairs.
     ///
     /// # Shapes
@@ -138,14 +131,7 @@ impl OffsetNetModel {
     /// # Errors
     /// As [`OffsetNetModel::load`], and [`NetError::Device`].
     pub fn load_on(dir: &Path, device: &str) -> Result<Self, NetError> {
-        let file = RegressModelFile::load(dir, RegressMethod::Offsetnet)?;
-        let device = crate::device::from_name(device)?;
-        let cfg = RegressConfig {
-            init_backbone: None,
-            ..file.config.clone()
-        };
-        let mut net = OffsetNetNet::new(&cfg, &device)?;
-        io::load_weights(dir, &mut net)?;
+        let (file, net, device) = load_model(dir, device)?;
         Ok(OffsetNetModel { file, net, device })
     }
 
@@ -336,129 +322,76 @@ pub fn train_offsetnet(
         .map(|(i, d)| offset_between(&data.poses[i], &data.poses[partner(i, d)]))
         .collect();
     let nz = PoseNormalizer::fit(&offsets)?;
-    let mut net = crate::device::seeded(&device, cfg.seed, || OffsetNetNet::new(cfg, &device))?;
-    let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
-
-    let sched = &cfg.schedule;
-    let steps_per_epoch = sched.steps_per_epoch();
-    let total_steps = steps_per_epoch * sched.epochs;
+    let net = crate::device::seeded(&device, cfg.seed, || OffsetNetNet::new(cfg, &device))?;
     let size = data.images.size;
     let intrinsics = data.view_intrinsics();
-    let t0 = Instant::now();
-    let mut history = Vec::with_capacity(sched.epochs);
-    let mut last_loss = None;
-    for epoch in 0..sched.epochs {
-        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x0FF5_E7AE_7000_0000);
-        rng.set_stream(epoch as u64 + 1);
-        let mut loss_sum = 0.0f64;
-        let mut remaining = sched.samples_per_epoch;
-        let mut k = 0;
-        while remaining > 0 {
-            let b = remaining.min(sched.batch).max(2);
-            remaining = remaining.saturating_sub(b);
-            let refs = draw_frames(&train_frames, b, &mut rng);
-            let queries: Vec<usize> = refs
+    let batch_loss = |net: &OffsetNetNet, b: usize, rng: &mut ChaCha8Rng| {
+        let refs = draw_frames(&train_frames, b, rng);
+        let queries: Vec<usize> = refs
+            .iter()
+            .map(|&i| partner(i, rng.random_range(-r..=r)))
+            .collect();
+        let ref_px = clean_batch(&data.images, &refs);
+        let (query_px, turns) = query_batch(&data.images, &queries, cfg, intrinsics.as_ref(), rng);
+        let (xs, qs): (Vec<[f32; 3]>, Vec<[f32; 4]>) = refs
+            .iter()
+            .zip(&queries)
+            .zip(&turns)
+            .map(|((&i, &j), turn)| {
+                let p = &data.poses[j];
+                let turned =
+                    pose_from_parts(p.translation.vector, rotated_rotation(&p.rotation, turn));
+                nz.target(&offset_between(&data.poses[i], &turned))
+            })
+            .unzip();
+        let (x_hat, q_hat) = net.forward(
+            images_tensor(ref_px, refs.len(), size, &device),
+            images_tensor(query_px, refs.len(), size, &device),
+        );
+        posenet_loss(
+            x_hat,
+            q_hat,
+            rows_tensor(&xs, &device),
+            rows_tensor(&qs, &device),
+            cfg.beta,
+        )
+    };
+    let held_errors = |net: &OffsetNetNet| {
+        let mut est = Vec::with_capacity(held.len());
+        for chunk in held.chunks(cfg.inference_batch.max(1)) {
+            let refs: Vec<usize> = chunk
                 .iter()
-                .map(|&i| partner(i, rng.random_range(-r..=r)))
+                .map(|&h| validation_reference(h, n, cfg))
                 .collect();
-            let ref_px = clean_batch(&data.images, &refs);
-            let (query_px, turns) =
-                query_batch(&data.images, &queries, cfg, intrinsics.as_ref(), &mut rng);
-            let (xs, qs): (Vec<[f32; 3]>, Vec<[f32; 4]>) = refs
-                .iter()
-                .zip(&queries)
-                .zip(&turns)
-                .map(|((&i, &j), turn)| {
-                    let p = &data.poses[j];
-                    let turned =
-                        pose_from_parts(p.translation.vector, rotated_rotation(&p.rotation, turn));
-                    nz.target(&offset_between(&data.poses[i], &turned))
-                })
-                .unzip();
-            let (x_hat, q_hat) = net.forward(
-                images_tensor(ref_px, refs.len(), size, &device),
-                images_tensor(query_px, refs.len(), size, &device),
+            let offs = offsets_px(
+                net,
+                &base,
+                &nz,
+                (
+                    clean_batch(&data.images, &refs),
+                    clean_batch(&data.images, chunk),
+                ),
+                chunk.len(),
+                size,
             );
-            let loss = posenet_loss(
-                x_hat,
-                q_hat,
-                rows_tensor(&xs, &device),
-                rows_tensor(&qs, &device),
-                cfg.beta,
+            est.extend(
+                refs.iter()
+                    .zip(&offs)
+                    .map(|(&r, o)| compose(&data.poses[r], o)),
             );
-            let lv = scalar(loss.clone());
-            if !lv.is_finite() {
-                return Err(NetError::Diverged {
-                    epoch: epoch + 1,
-                    loss: lv,
-                });
-            }
-            let grads = GradientsParams::from_grads(loss.backward(), &net);
-            let lr = sched.learning_rate_at(epoch * steps_per_epoch + k, total_steps);
-            net = optim.step(lr, net, grads);
-            loss_sum += lv as f64;
-            k += 1;
-            progress(&RegressProgress {
-                phase: RegressPhase::Training,
-                done: epoch * steps_per_epoch + k,
-                total: total_steps,
-                epoch: epoch + 1,
-                loss: last_loss,
-            });
         }
-        let loss = (loss_sum / k.max(1) as f64) as f32;
-        last_loss = Some(loss);
-        let last = epoch + 1 == sched.epochs;
-        let validate = !held.is_empty()
-            && cfg.validate_every_epochs > 0
-            && ((epoch + 1) % cfg.validate_every_epochs == 0 || last);
-        let (vp, vo) = if validate {
-            progress(&RegressProgress {
-                phase: RegressPhase::Validating,
-                done: (epoch + 1) * steps_per_epoch,
-                total: total_steps,
-                epoch: epoch + 1,
-                loss: last_loss,
-            });
-            let valid = net.valid();
-            let mut est = Vec::with_capacity(held.len());
-            for chunk in held.chunks(cfg.inference_batch.max(1)) {
-                let refs: Vec<usize> = chunk
-                    .iter()
-                    .map(|&h| validation_reference(h, n, cfg))
-                    .collect();
-                let offs = offsets_px(
-                    &valid,
-                    &base,
-                    &nz,
-                    (
-                        clean_batch(&data.images, &refs),
-                        clean_batch(&data.images, chunk),
-                    ),
-                    chunk.len(),
-                    size,
-                );
-                est.extend(
-                    refs.iter()
-                        .zip(&offs)
-                        .map(|(&r, o)| compose(&data.poses[r], o)),
-                );
-            }
-            let truth: Vec<Pose> = held.iter().map(|&f| data.poses[f]).collect();
-            let (p, o) = mean_errors(&est, &truth);
-            tracing::info!("offsetnet epoch {}: held-out {p:.1} mm, {o:.2}°", epoch + 1);
-            (Some(p), Some(o))
-        } else {
-            (None, None)
-        };
-        history.push(RegressEpoch {
-            epoch: epoch + 1,
-            loss,
-            val_position_mm: vp,
-            val_orientation_deg: vo,
-            elapsed_s: t0.elapsed().as_secs_f64(),
-        });
-    }
+        let truth: Vec<Pose> = held.iter().map(|&f| data.poses[f]).collect();
+        mean_errors(&est, &truth)
+    };
+    let (net, history) = fit(
+        cfg,
+        0x0FF5_E7AE_7000_0000,
+        net,
+        !held.is_empty(),
+        batch_loss,
+        held_errors,
+        progress,
+    )?;
     let file = RegressModelFile {
         format_version: io::FORMAT_VERSION,
         method: RegressMethod::Offsetnet,
@@ -471,7 +404,7 @@ pub fn train_offsetnet(
     };
     Ok(OffsetNetModel {
         file,
-        net: net.valid(),
+        net,
         device: base,
     })
 }

@@ -18,28 +18,26 @@
 //! ```
 
 use super::batch::{
-    clean_batch, draw_frames, images_tensor, query_batch, rows_tensor, scalar, split_holdout,
+    clean_batch, draw_frames, images_tensor, query_batch, rows_tensor, split_holdout,
 };
+use super::fit::{RegressNetwork, fit, init_backbone, load_model};
 use super::io::{self, RegressMethod, RegressModelFile};
 use super::view::rotated_rotation;
 use super::{
-    PoseHead, PoseNormalizer, RegressConfig, RegressEpoch, RegressPhase, RegressProgress,
-    TrainingSet, check_frame, posenet_loss, scaled_features, tensor_rows,
+    PoseHead, PoseNormalizer, RegressConfig, RegressEpoch, RegressProgress, TrainingSet,
+    check_frame, posenet_loss, scaled_features, tensor_rows,
 };
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
 use crate::preprocess::network_input;
 use crate::train::ImageCache;
 use burn::module::Module;
-use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Device, Tensor};
 use endoloc_geometry::pose::pose_from_parts;
 use endoloc_geometry::{Pose, orientation_error_deg, position_error_mm};
-use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::path::Path;
-use std::time::Instant;
 
 /// The PoseNet network: backbone → scaled descriptor → pose head.
 #[derive(Module, Debug)]
@@ -50,23 +48,18 @@ pub struct PoseNetNet {
     pub head: PoseHead,
 }
 
-impl PoseNetNet {
-    /// A fresh network for `cfg` on `device` (seed the device first for reproducible weights;
-    /// the backbone comes from `cfg.init_backbone` when set).
-    ///
-    /// # Errors
-    /// [`NetError::Weights`] when `cfg.init_backbone` cannot be loaded.
-    pub fn new(cfg: &RegressConfig, device: &Device) -> Result<Self, NetError> {
-        let backbone = match &cfg.init_backbone {
-            Some(p) => crate::model::load_weights(&cfg.backbone, p, device)?,
-            None => cfg.backbone.init(device),
-        };
+impl RegressNetwork for PoseNetNet {
+    const METHOD: RegressMethod = RegressMethod::Posenet;
+
+    fn new(cfg: &RegressConfig, device: &Device) -> Result<Self, NetError> {
         Ok(PoseNetNet {
-            backbone,
+            backbone: init_backbone(cfg, device)?,
             head: PoseHead::new(cfg.backbone.descriptor_dim(), cfg.hidden, device),
         })
     }
+}
 
+impl PoseNetNet {
     /// Normalised positions and raw relative quaternions of a batch.
     ///
     /// # Shapes
@@ -116,14 +109,7 @@ impl PoseNetModel {
     /// # Errors
     /// As [`PoseNetModel::load`], and [`NetError::Device`].
     pub fn load_on(dir: &Path, device: &str) -> Result<Self, NetError> {
-        let file = RegressModelFile::load(dir, RegressMethod::Posenet)?;
-        let device = crate::device::from_name(device)?;
-        let cfg = RegressConfig {
-            init_backbone: None,
-            ..file.config.clone()
-        };
-        let mut net = PoseNetNet::new(&cfg, &device)?;
-        io::load_weights(dir, &mut net)?;
+        let (file, net, device) = load_model(dir, device)?;
         Ok(PoseNetModel { file, net, device })
     }
 
@@ -252,105 +238,46 @@ pub fn train_posenet(
     let (train_frames, held) = split_holdout(data.len(), cfg.holdout_every);
     let train_poses: Vec<Pose> = train_frames.iter().map(|&f| data.poses[f]).collect();
     let nz = PoseNormalizer::fit(&train_poses)?;
-    let mut net = crate::device::seeded(&device, cfg.seed, || PoseNetNet::new(cfg, &device))?;
-    let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
-
-    let sched = &cfg.schedule;
-    let steps_per_epoch = sched.steps_per_epoch();
-    let total_steps = steps_per_epoch * sched.epochs;
+    let net = crate::device::seeded(&device, cfg.seed, || PoseNetNet::new(cfg, &device))?;
     let size = data.images.size;
     let intrinsics = data.view_intrinsics();
-    let t0 = Instant::now();
-    let mut history = Vec::with_capacity(sched.epochs);
-    let mut last_loss = None;
-    for epoch in 0..sched.epochs {
-        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x9E37_79B9_7F4A_7C15);
-        rng.set_stream(epoch as u64 + 1);
-        let mut loss_sum = 0.0f64;
-        let mut remaining = sched.samples_per_epoch;
-        let mut k = 0;
-        while remaining > 0 {
-            let b = remaining.min(sched.batch).max(2);
-            remaining = remaining.saturating_sub(b);
-            let frames = draw_frames(&train_frames, b, &mut rng);
-            let (px, turns) =
-                query_batch(&data.images, &frames, cfg, intrinsics.as_ref(), &mut rng);
-            let (xs, qs): (Vec<[f32; 3]>, Vec<[f32; 4]>) = frames
-                .iter()
-                .zip(&turns)
-                .map(|(&f, turn)| {
-                    let p = &data.poses[f];
-                    nz.target(&pose_from_parts(
-                        p.translation.vector,
-                        rotated_rotation(&p.rotation, turn),
-                    ))
-                })
-                .unzip();
-            let (x_hat, q_hat) = net.forward(images_tensor(px, frames.len(), size, &device));
-            let loss = posenet_loss(
-                x_hat,
-                q_hat,
-                rows_tensor(&xs, &device),
-                rows_tensor(&qs, &device),
-                cfg.beta,
-            );
-            let lv = scalar(loss.clone());
-            if !lv.is_finite() {
-                return Err(NetError::Diverged {
-                    epoch: epoch + 1,
-                    loss: lv,
-                });
-            }
-            let grads = GradientsParams::from_grads(loss.backward(), &net);
-            let lr = sched.learning_rate_at(epoch * steps_per_epoch + k, total_steps);
-            net = optim.step(lr, net, grads);
-            loss_sum += lv as f64;
-            k += 1;
-            progress(&RegressProgress {
-                phase: RegressPhase::Training,
-                done: epoch * steps_per_epoch + k,
-                total: total_steps,
-                epoch: epoch + 1,
-                loss: last_loss,
-            });
-        }
-        let loss = (loss_sum / k.max(1) as f64) as f32;
-        last_loss = Some(loss);
-        let last = epoch + 1 == sched.epochs;
-        let validate = !held.is_empty()
-            && cfg.validate_every_epochs > 0
-            && ((epoch + 1) % cfg.validate_every_epochs == 0 || last);
-        let (vp, vo) = if validate {
-            progress(&RegressProgress {
-                phase: RegressPhase::Validating,
-                done: (epoch + 1) * steps_per_epoch,
-                total: total_steps,
-                epoch: epoch + 1,
-                loss: last_loss,
-            });
-            let est = predict_cached(
-                &net.valid(),
-                &base,
-                &nz,
-                &data.images,
-                &held,
-                cfg.inference_batch,
-            );
-            let truth: Vec<Pose> = held.iter().map(|&f| data.poses[f]).collect();
-            let (p, o) = mean_errors(&est, &truth);
-            tracing::info!("posenet epoch {}: held-out {p:.1} mm, {o:.2}°", epoch + 1);
-            (Some(p), Some(o))
-        } else {
-            (None, None)
-        };
-        history.push(RegressEpoch {
-            epoch: epoch + 1,
-            loss,
-            val_position_mm: vp,
-            val_orientation_deg: vo,
-            elapsed_s: t0.elapsed().as_secs_f64(),
-        });
-    }
+    let batch_loss = |net: &PoseNetNet, b: usize, rng: &mut ChaCha8Rng| {
+        let frames = draw_frames(&train_frames, b, rng);
+        let (px, turns) = query_batch(&data.images, &frames, cfg, intrinsics.as_ref(), rng);
+        let (xs, qs): (Vec<[f32; 3]>, Vec<[f32; 4]>) = frames
+            .iter()
+            .zip(&turns)
+            .map(|(&f, turn)| {
+                let p = &data.poses[f];
+                nz.target(&pose_from_parts(
+                    p.translation.vector,
+                    rotated_rotation(&p.rotation, turn),
+                ))
+            })
+            .unzip();
+        let (x_hat, q_hat) = net.forward(images_tensor(px, frames.len(), size, &device));
+        posenet_loss(
+            x_hat,
+            q_hat,
+            rows_tensor(&xs, &device),
+            rows_tensor(&qs, &device),
+            cfg.beta,
+        )
+    };
+    let held_errors = |net: &PoseNetNet| {
+        let est = predict_cached(net, &base, &nz, &data.images, &held, cfg.inference_batch);
+        let truth: Vec<Pose> = held.iter().map(|&f| data.poses[f]).collect();
+        mean_errors(&est, &truth)
+    };
+    let (net, history) = fit(
+        cfg,
+        0x9E37_79B9_7F4A_7C15,
+        net,
+        !held.is_empty(),
+        batch_loss,
+        held_errors,
+        progress,
+    )?;
     let file = RegressModelFile {
         format_version: io::FORMAT_VERSION,
         method: RegressMethod::Posenet,
@@ -363,7 +290,7 @@ pub fn train_posenet(
     };
     Ok(PoseNetModel {
         file,
-        net: net.valid(),
+        net,
         device: base,
     })
 }
