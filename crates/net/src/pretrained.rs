@@ -9,11 +9,12 @@
 //! torchvision's weights build the backbone with `branch3_kernel = 3`: torchvision kept a 3×3
 //! kernel in the "5×5" branch. Any model's own `weights.safetensors` also loads (fine-tuning).
 //!
-//! **Built-in weights** ([`BUILTIN`], `--pretrained builtin`): the default compact backbone
-//! pretrained by `endoloc pretrain` on four simulated colons (seeds 101–404, two passes each,
-//! none of them the `paper` preset's colon), shipped inside the binary
-//! (`crates/net/weights/`, provenance in its README). They fit the default compact backbone
-//! only; any other network is refused with the architecture they need.
+//! **Built-in weights** ([`BUILTINS`]): the default compact backbone pretrained by
+//! `endoloc pretrain` on four simulated colons (seeds 101–404, two passes each, none of them
+//! the `paper` preset's colon), shipped inside the binary (`crates/net/weights/`, provenance in
+//! its README). `builtin` ([`BUILTIN`]) was pretrained with zone pairs, `builtin-track` from it
+//! with track pairs on the same colons. They fit the default compact backbone only; any other
+//! network is refused with the architecture they need.
 
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
@@ -45,27 +46,64 @@ fn not_conv1(path: &str, _container: &str) -> bool {
 /// that name is not looked for: write `./builtin` for one).
 pub const BUILTIN: &str = "builtin";
 
-/// The built-in weights: safetensors of the default compact backbone (see the module
-/// documentation).
-const BUILTIN_WEIGHTS: &[u8] = include_bytes!("../weights/compact-sim4.safetensors");
-
-/// Whether `path` names the built-in weights.
-pub fn is_builtin(path: &Path) -> bool {
-    path.as_os_str() == BUILTIN
+/// A set of start weights shipped inside endoloc (`crates/net/weights/`, provenance in its
+/// README), for the default compact backbone only.
+#[derive(Debug, Clone, Copy)]
+pub struct BuiltinWeights {
+    /// The name that stands for them wherever a weights path is taken.
+    pub name: &'static str,
+    /// What they were pretrained with, and for which training they are the better start.
+    pub about: &'static str,
+    bytes: &'static [u8],
 }
 
-/// Loads the tensors of `path` that fit `net` (see the module documentation); the path
-/// [`BUILTIN`] loads the built-in weights.
+/// Every set of built-in weights; the first is [`BUILTIN`].
+pub const BUILTINS: &[BuiltinWeights] = &[
+    BuiltinWeights {
+        name: BUILTIN,
+        about: "zone pairs on four simulated colons (two passes each); \
+                the start for zone-pair training",
+        bytes: include_bytes!("../weights/compact-sim4.safetensors"),
+    },
+    BuiltinWeights {
+        name: "builtin-track",
+        about: "`builtin`, then track pairs (near fraction 0.1) on the same four colons; \
+                the start for `--pairs track --near-fraction 0.1`",
+        bytes: include_bytes!("../weights/compact-sim4-track.safetensors"),
+    },
+];
+
+/// The built-in weights `path` names, if it names one.
+pub fn builtin(path: &Path) -> Option<&'static BuiltinWeights> {
+    BUILTINS.iter().find(|b| path.as_os_str() == b.name)
+}
+
+/// Whether `path` names built-in weights.
+pub fn is_builtin(path: &Path) -> bool {
+    builtin(path).is_some()
+}
+
+/// Loads the tensors of `path` that fit `net` (see the module documentation); a path that
+/// names built-in weights ([`BUILTINS`]) loads those.
 ///
 /// # Errors
 /// [`NetError::Weights`] when the file cannot be read or nothing in it fits the network, or
 /// for the built-in weights, when the network is not the default compact backbone.
 pub fn load_pretrained(net: &mut EmbeddingNet, path: &Path) -> Result<PretrainedReport, NetError> {
-    if is_builtin(path) {
-        return load_builtin(net);
+    if let Some(b) = builtin(path) {
+        return load_builtin(net, b);
     }
     if !path.is_file() {
-        return Err(NetError::weights(path, "file not found"));
+        let names: Vec<&str> = BUILTINS.iter().map(|b| b.name).collect();
+        let why = if path.to_string_lossy().starts_with(BUILTIN) {
+            format!(
+                "file not found, nor built-in weights of that name ({})",
+                names.join(", ")
+            )
+        } else {
+            "file not found".to_string()
+        };
+        return Err(NetError::weights(path, why));
     }
     let ext = path
         .extension()
@@ -135,11 +173,14 @@ pub fn load_pretrained(net: &mut EmbeddingNet, path: &Path) -> Result<Pretrained
     Ok(report)
 }
 
-/// Loads the built-in weights; every tensor of `net` must be in them with its shape.
-fn load_builtin(net: &mut EmbeddingNet) -> Result<PretrainedReport, NetError> {
+/// Loads built-in weights; every tensor of `net` must be in them with its shape.
+fn load_builtin(
+    net: &mut EmbeddingNet,
+    weights: &BuiltinWeights,
+) -> Result<PretrainedReport, NetError> {
     let refuse = |why: String| {
         NetError::weights(
-            BUILTIN,
+            weights.name,
             format!(
                 "the built-in weights fit the default compact backbone only \
                  (`BackboneConfig::default()`: 256×192 input, stem stride 4, 128-d); {why}"
@@ -149,13 +190,13 @@ fn load_builtin(net: &mut EmbeddingNet) -> Result<PretrainedReport, NetError> {
     if !matches!(net, EmbeddingNet::Compact(_)) {
         return Err(refuse("this network is GoogLeNet".into()));
     }
-    let mut store = SafetensorsStore::from_bytes(Some(BUILTIN_WEIGHTS.to_vec()))
+    let mut store = SafetensorsStore::from_bytes(Some(weights.bytes.to_vec()))
         .allow_partial(true)
         .skip_enum_variants(true)
         .validate(false);
     let r = net
         .load_from(&mut store)
-        .map_err(|e| NetError::weights(BUILTIN, e))?;
+        .map_err(|e| NetError::weights(weights.name, e))?;
     if !r.missing.is_empty() || !r.errors.is_empty() || !r.unused.is_empty() {
         let names: Vec<String> = r
             .missing
@@ -278,20 +319,39 @@ mod tests {
         let device = crate::device::cpu();
         device.seed(1);
         let fresh = BackboneConfig::default().init(&device);
-        let mut net = fresh.clone();
-        let r = load_pretrained(&mut net, Path::new(BUILTIN)).unwrap();
-        assert!(
-            r.applied >= 10 && r.missing.is_empty() && r.skipped.is_empty(),
-            "{r:?}"
-        );
-        // Loaded, not left at the random start: the descriptors change.
         let x = Tensor::<4>::random(
             [1, 1, 192, 256],
             burn::tensor::Distribution::Default,
             &device,
         );
-        let (ya, yb) = (fresh.valid().forward(x.clone()), net.valid().forward(x));
-        let diff: f32 = (ya - yb).abs().max().into_scalar();
-        assert!(diff > 1e-3, "{diff}");
+        let describe = |net: &EmbeddingNet| net.valid().forward(x.clone());
+        let mut outputs = vec![describe(&fresh)];
+        for b in BUILTINS {
+            let mut net = fresh.clone();
+            let r = load_pretrained(&mut net, Path::new(b.name)).unwrap();
+            assert!(
+                r.applied >= 10 && r.missing.is_empty() && r.skipped.is_empty(),
+                "{}: {r:?}",
+                b.name
+            );
+            outputs.push(describe(&net));
+        }
+        // Loaded, not left at the random start, and each set is its own: every pair of
+        // networks describes the same image differently.
+        for i in 0..outputs.len() {
+            for j in i + 1..outputs.len() {
+                let diff: f32 = (outputs[i].clone() - outputs[j].clone())
+                    .abs()
+                    .max()
+                    .into_scalar();
+                assert!(diff > 1e-3, "networks {i} and {j}: {diff}");
+            }
+        }
+        // A name like a built-in one that is none says which there are.
+        let mut net = fresh.clone();
+        let err = load_pretrained(&mut net, Path::new("builtin-zone"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("builtin, builtin-track"), "{err}");
     }
 }

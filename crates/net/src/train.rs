@@ -110,16 +110,18 @@ impl Schedule {
     /// Learning rate at `step` of `total` (cosine from `learning_rate` to
     /// `final_learning_rate`).
     pub fn learning_rate_at(&self, step: usize, total: usize) -> f64 {
-        let t = if total <= 1 {
-            0.0
-        } else {
-            step as f64 / (total - 1) as f64
-        };
-        self.final_learning_rate
-            + 0.5
-                * (self.learning_rate - self.final_learning_rate)
-                * (1.0 + (std::f64::consts::PI * t.clamp(0.0, 1.0)).cos())
+        cosine_learning_rate(self.learning_rate, self.final_learning_rate, step, total)
     }
+}
+
+/// Learning rate at `step` of `total`: a cosine from `start` (step 0) to `end` (the last step).
+pub(crate) fn cosine_learning_rate(start: f64, end: f64, step: usize, total: usize) -> f64 {
+    let t = if total <= 1 {
+        0.0
+    } else {
+        step as f64 / (total - 1) as f64
+    };
+    end + 0.5 * (start - end) * (1.0 + (std::f64::consts::PI * t.clamp(0.0, 1.0)).cos())
 }
 
 /// Validation during training: held-out training frames classified against the others.

@@ -25,7 +25,7 @@ use crate::cmd::demo::{parse, stage};
 ///   schedule = "fast"                  # fast | paper
 ///   epochs = 0                         # 0 = the schedule's
 ///   seed = 0
-///   pretrained = "builtin"   # optional start weights: a file, or the shipped ones
+///   pretrained = "builtin"             # optional start weights: a file, builtin, builtin-track
 ///   pairs = "zone"                     # zone (the paper's) | track (`endoloc train --pairs`)
 ///   [map]
 ///   images_per_zone = 8

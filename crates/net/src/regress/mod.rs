@@ -45,7 +45,7 @@ use crate::NetError;
 use crate::augment::AugmentConfig;
 use crate::backbone::BackboneConfig;
 use crate::preprocess::InputSize;
-use crate::train::ImageCache;
+use crate::train::{ImageCache, cosine_learning_rate};
 use burn::module::Module;
 use burn::nn::{Linear, LinearConfig};
 use burn::tensor::activation::relu;
@@ -128,15 +128,7 @@ impl RegressSchedule {
     /// Learning rate at `step` of `total` (cosine from `learning_rate` to
     /// `final_learning_rate`).
     pub fn learning_rate_at(&self, step: usize, total: usize) -> f64 {
-        let t = if total <= 1 {
-            0.0
-        } else {
-            step as f64 / (total - 1) as f64
-        };
-        self.final_learning_rate
-            + 0.5
-                * (self.learning_rate - self.final_learning_rate)
-                * (1.0 + (std::f64::consts::PI * t.clamp(0.0, 1.0)).cos())
+        cosine_learning_rate(self.learning_rate, self.final_learning_rate, step, total)
     }
 }
 
