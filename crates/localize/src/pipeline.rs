@@ -220,7 +220,7 @@ impl Localizer {
 
     /// A fresh temporal filter for a live sequence.
     pub fn temporal_filter(&self) -> TemporalFilter {
-        TemporalFilter::new(self.classifier.zone_count(), self.cfg.temporal.clone())
+        TemporalFilter::new(self.classifier.zone_count(), self.cfg.temporal)
     }
 
     /// Classifies a frame (step 1 alone).

@@ -79,7 +79,6 @@ pub(crate) fn load_model<N: RegressNetwork>(
 ///
 /// # Errors
 /// [`NetError::Diverged`] for a non-finite loss.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn fit<N: RegressNetwork>(
     cfg: &RegressConfig,
     seed_salt: u64,
