@@ -11,7 +11,7 @@
 //! Written to `MODEL.partial/` and renamed into place ([`crate::model::publish`]).
 
 use super::normalize::PoseNormalizer;
-use super::{RegressConfig, RegressEpoch};
+use super::{RegressConfig, RegressEpoch, TrainingSet};
 use crate::NetError;
 use burn::module::Module;
 use burn_store::{ModuleSnapshot, SafetensorsStore};
@@ -68,6 +68,26 @@ pub struct RegressModelFile {
 }
 
 impl RegressModelFile {
+    /// The file of a `method` model just trained on `data` with `cfg`.
+    pub(crate) fn trained(
+        method: RegressMethod,
+        data: &TrainingSet,
+        normalizer: PoseNormalizer,
+        cfg: &RegressConfig,
+        history: Vec<RegressEpoch>,
+    ) -> Self {
+        RegressModelFile {
+            format_version: FORMAT_VERSION,
+            method,
+            frame_width: data.frame_width,
+            frame_height: data.frame_height,
+            frames: data.len(),
+            normalizer,
+            config: cfg.clone(),
+            history,
+        }
+    }
+
     /// Reads `MODEL/regress.toml` and checks that it holds a `method` model.
     ///
     /// # Errors

@@ -392,16 +392,7 @@ pub fn train_offsetnet(
         held_errors,
         progress,
     )?;
-    let file = RegressModelFile {
-        format_version: io::FORMAT_VERSION,
-        method: RegressMethod::Offsetnet,
-        frame_width: data.frame_width,
-        frame_height: data.frame_height,
-        frames: n,
-        normalizer: nz,
-        config: cfg.clone(),
-        history,
-    };
+    let file = RegressModelFile::trained(RegressMethod::Offsetnet, data, nz, cfg, history);
     Ok(OffsetNetModel {
         file,
         net,

@@ -278,16 +278,7 @@ pub fn train_posenet(
         held_errors,
         progress,
     )?;
-    let file = RegressModelFile {
-        format_version: io::FORMAT_VERSION,
-        method: RegressMethod::Posenet,
-        frame_width: data.frame_width,
-        frame_height: data.frame_height,
-        frames: data.len(),
-        normalizer: nz,
-        config: cfg.clone(),
-        history,
-    };
+    let file = RegressModelFile::trained(RegressMethod::Posenet, data, nz, cfg, history);
     Ok(PoseNetModel {
         file,
         net,
