@@ -24,6 +24,7 @@ pub mod device;
 pub mod error;
 pub mod loss;
 pub mod model;
+mod optimise;
 pub mod pairs;
 pub mod plot;
 pub mod preprocess;

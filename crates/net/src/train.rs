@@ -16,13 +16,14 @@ use crate::backbone::{BackboneConfig, EmbeddingNet};
 use crate::database::{DescriptorDatabase, ScoreRule};
 use crate::loss::{DEFAULT_MARGIN, contrastive_loss};
 use crate::model::{self, ModelConfig};
+use crate::optimise::{cosine_learning_rate, descend};
 use crate::pairs::{PairBatch, PairRule, PairSampler};
 use crate::preprocess::{InputSize, resize_area, standardize};
 use crate::regress::view::ViewIntrinsics;
 use crate::temporal::TemporalConfig;
 use crate::zones::{TRUTH_ANGLE_WEIGHT_MM_PER_DEG, ZoneTable, nearest_frame};
 use burn::module::Module;
-use burn::optim::{AdamConfig, GradientsParams};
+use burn::optim::AdamConfig;
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use endoloc_data::Sequence;
 use endoloc_geometry::Camera;
@@ -112,16 +113,6 @@ impl Schedule {
     pub fn learning_rate_at(&self, step: usize, total: usize) -> f64 {
         cosine_learning_rate(self.learning_rate, self.final_learning_rate, step, total)
     }
-}
-
-/// Learning rate at `step` of `total`: a cosine from `start` (step 0) to `end` (the last step).
-pub(crate) fn cosine_learning_rate(start: f64, end: f64, step: usize, total: usize) -> f64 {
-    let t = if total <= 1 {
-        0.0
-    } else {
-        step as f64 / (total - 1) as f64
-    };
-    end + 0.5 * (start - end) * (1.0 + (std::f64::consts::PI * t.clamp(0.0, 1.0)).cos())
 }
 
 /// Validation during training: held-out training frames classified against the others.
@@ -740,22 +731,9 @@ pub fn fit(
                 &device,
             );
             let loss = contrastive_loss(da, db, y, cfg.margin);
-            let lv: f32 = loss
-                .clone()
-                .into_data()
-                .try_into_vec::<f32>()
-                .ok()
-                .and_then(|v| v.first().copied())
-                .unwrap_or(f32::NAN);
-            if !lv.is_finite() {
-                return Err(NetError::Diverged {
-                    epoch: epoch + 1,
-                    loss: lv,
-                });
-            }
-            let grads = GradientsParams::from_grads(loss.backward(), &net);
             let lr = sched.learning_rate_at(epoch * steps_per_epoch + k, total_steps);
-            net = optim.step(lr, net, grads);
+            let (stepped, lv) = descend(&mut optim, net, loss, lr, epoch + 1)?;
+            net = stepped;
             loss_sum += lv as f64;
             k += 1;
             steps += 1;

@@ -122,12 +122,3 @@ pub(crate) fn draw_frames(pool: &[usize], b: usize, rng: &mut ChaCha8Rng) -> Vec
             .collect()
     }
 }
-
-/// The first element of a scalar loss tensor.
-pub(crate) fn scalar(t: Tensor<1>) -> f32 {
-    t.into_data()
-        .try_into_vec::<f32>()
-        .ok()
-        .and_then(|v| v.first().copied())
-        .unwrap_or(f32::NAN)
-}

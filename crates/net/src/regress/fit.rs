@@ -4,13 +4,13 @@
 //! progress reports and the per-epoch history. Each method supplies only how a batch is drawn
 //! and scored and how its held-out frames are predicted.
 
-use super::batch::scalar;
 use super::io::{self, RegressMethod, RegressModelFile};
 use super::{RegressConfig, RegressEpoch, RegressPhase, RegressProgress};
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
+use crate::optimise::descend;
 use burn::module::Module;
-use burn::optim::{AdamConfig, GradientsParams};
+use burn::optim::AdamConfig;
 use burn::tensor::{Device, Tensor};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -105,16 +105,9 @@ pub(crate) fn fit<N: RegressNetwork>(
             let b = remaining.min(sched.batch).max(2);
             remaining = remaining.saturating_sub(b);
             let loss = batch_loss(&net, b, &mut rng);
-            let lv = scalar(loss.clone());
-            if !lv.is_finite() {
-                return Err(NetError::Diverged {
-                    epoch: epoch + 1,
-                    loss: lv,
-                });
-            }
-            let grads = GradientsParams::from_grads(loss.backward(), &net);
             let lr = sched.learning_rate_at(epoch * steps_per_epoch + k, total_steps);
-            net = optim.step(lr, net, grads);
+            let (stepped, lv) = descend(&mut optim, net, loss, lr, epoch + 1)?;
+            net = stepped;
             loss_sum += lv as f64;
             k += 1;
             progress(&RegressProgress {
