@@ -10,11 +10,12 @@
 //! kernel in the "5×5" branch. Any model's own `weights.safetensors` also loads (fine-tuning).
 //!
 //! **Built-in weights** ([`BUILTINS`]): the default compact backbone pretrained by
-//! `endoloc pretrain` on four simulated colons (seeds 101–404, two passes each, none of them
-//! the `paper` preset's colon), shipped inside the binary (`crates/net/weights/`, provenance in
-//! its README). `builtin` ([`BUILTIN`]) was pretrained with zone pairs, `builtin-track` from it
-//! with track pairs on the same colons. They fit the default compact backbone only; any other
-//! network is refused with the architecture they need.
+//! `endoloc pretrain` on simulated colons (two passes each, none of them the `paper` preset's
+//! colon), shipped inside the binary (`crates/net/weights/`, provenance in its README).
+//! `builtin` ([`BUILTIN`]) was pretrained with zone pairs on four colons (seeds 101–404),
+//! `builtin-track` from it with track pairs on those and four more (seeds 505–808). They fit
+//! the default compact backbone only; any other network is refused with the architecture they
+//! need.
 
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
@@ -67,9 +68,9 @@ pub const BUILTINS: &[BuiltinWeights] = &[
     },
     BuiltinWeights {
         name: "builtin-track",
-        about: "`builtin`, then track pairs (near fraction 0.1) on the same four colons; \
-                the start for `--pairs track --near-fraction 0.1`",
-        bytes: include_bytes!("../weights/compact-sim4-track.safetensors"),
+        about: "`builtin`, then track pairs (near fraction 0.1) on the same four colons and \
+                four more; the start for `--pairs track --near-fraction 0.1`",
+        bytes: include_bytes!("../weights/compact-sim8-track.safetensors"),
     },
 ];
 
