@@ -167,9 +167,9 @@ pub struct Args {
     /// torchvision's weights). `builtin`: the weights shipped with endoloc, the default
     /// compact backbone pretrained with zone pairs on four simulated colons (`endoloc
     /// pretrain`); `builtin-track`: those, further pretrained with track pairs on the same
-    /// colons, the start for `--pairs track --near-fraction 0.1`: the best single model on the
-    /// `paper` preset (82.5 % exact per frame against 62.5 % from random weights and 78.6 %
-    /// from `builtin`).
+    /// colons and four more, the start for `--pairs track --near-fraction 0.1`: the best
+    /// single model on the `paper` preset (83.6 % exact per frame against 62.5 % from random
+    /// weights and 78.6 % from `builtin`).
     #[arg(long, value_name = "FILE|builtin|builtin-track")]
     pretrained: Option<PathBuf>,
 
