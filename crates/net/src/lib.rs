@@ -28,6 +28,7 @@ mod optimise;
 pub mod pairs;
 pub mod plot;
 pub mod preprocess;
+pub mod pretrain;
 pub mod pretrained;
 pub mod regress;
 pub mod temporal;

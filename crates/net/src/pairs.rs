@@ -22,6 +22,12 @@ use rand::Rng;
 use rand::seq::IndexedRandom;
 use serde::{Deserialize, Serialize};
 
+/// Places of several colons in one training ([`crate::pretrain`]): the place of frame `f` of
+/// colon `c` is `c · COLON_PLACE_STRIDE + f`. Track pairs are drawn within one colon (a
+/// negative from the same colon as its partner, where the look-alikes are); a single colon
+/// is colon 0, whose places are its frame indices.
+pub const COLON_PLACE_STRIDE: usize = 1 << 32;
+
 /// Which pairs the training draws (`[pairs]` of a training config, `endoloc train --pairs`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
 #[serde(tag = "rule", rename_all = "snake_case")]
@@ -143,24 +149,35 @@ impl TrackPairs {
     }
 
     /// An image at least `negative` frames from `place` (within `2 · negative` with
-    /// probability `near`). The constructor ensures one exists.
+    /// probability `near`), from the same colon ([`COLON_PLACE_STRIDE`]). The constructor
+    /// ensures one exists for a single colon.
     fn negative_of<R: Rng>(&self, place: usize, rng: &mut R) -> (usize, usize) {
         let n = self.negative;
+        let first = place - place % COLON_PLACE_STRIDE;
+        let last = first
+            .saturating_add(COLON_PLACE_STRIDE - 1)
+            .min(usize::MAX - 1);
         let (below, above) = if rng.random_bool(self.near) {
             (
                 place
                     .checked_sub(n)
-                    .map_or(0..0, |hi| self.range(place.saturating_sub(2 * n), hi)),
-                self.range(place + n, place + 2 * n),
+                    .filter(|&hi| hi >= first)
+                    .map_or(0..0, |hi| {
+                        self.range(place.saturating_sub(2 * n).max(first), hi)
+                    }),
+                self.range(place + n, (place + 2 * n).min(last)),
             )
         } else {
             (0..0, 0..0)
         };
         let (below, above) = if below.is_empty() && above.is_empty() {
-            // Anywhere at least `n` away.
+            // Anywhere in the colon at least `n` away.
             (
-                place.checked_sub(n).map_or(0..0, |hi| self.range(0, hi)),
-                self.range(place + n, usize::MAX - 1),
+                place
+                    .checked_sub(n)
+                    .filter(|&hi| hi >= first)
+                    .map_or(0..0, |hi| self.range(first, hi)),
+                self.range(place + n, last),
             )
         } else {
             (below, above)
@@ -582,6 +599,43 @@ mod tests {
             let frac = near as f64 / neg as f64;
             assert!(frac > 0.45 && frac < 0.62, "near fraction {frac}");
         }
+    }
+
+    #[test]
+    fn track_pairs_of_several_colons_stay_within_a_colon() {
+        // Three colons of 200 frames; a colon's images are numbered after the previous ones.
+        let frames: Vec<(usize, usize)> = (0..3)
+            .flat_map(|c| (0..200).map(move |f| (c * COLON_PLACE_STRIDE + f, c * 200 + f)))
+            .collect();
+        let place_of = |image: usize| frames[image].0;
+        let rule = PairRule::Track {
+            positive_frames: 3,
+            negative_frames: 10,
+            near_fraction: 0.1,
+            zone_fraction: 0.0,
+        };
+        let s = PairSampler::along_track(frames.clone(), rule).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let mut colons_seen = [0usize; 3];
+        for shared in [false, true] {
+            for _ in 0..40 {
+                let b = s.batch(64, shared, &mut rng);
+                for k in 0..b.a.len() {
+                    let (pa, pb) = (place_of(b.images[b.a[k]]), place_of(b.images[b.b[k]]));
+                    let (ca, cb) = (pa / COLON_PLACE_STRIDE, pb / COLON_PLACE_STRIDE);
+                    assert_eq!(ca, cb, "a pair across colons: places {pa} and {pb}");
+                    colons_seen[ca] += 1;
+                    let gap = pa.abs_diff(pb);
+                    if b.dissimilar[k] == 0.0 {
+                        assert!(gap <= 3, "positive gap {gap}");
+                    } else {
+                        assert!((10..200).contains(&gap), "negative gap {gap}");
+                    }
+                }
+            }
+        }
+        // Every colon is drawn, about equally (pairs are drawn by frame).
+        assert!(colons_seen.iter().all(|&n| n > 1000), "{colons_seen:?}");
     }
 
     #[test]

@@ -900,6 +900,34 @@ pub struct TrainTarget {
 }
 
 impl TrainTarget {
+    /// Checks that the output may be written and makes its staging folder
+    /// ([`TrainTarget::staging_dir`]), kept as it is when resuming, emptied with `force`.
+    ///
+    /// # Errors
+    /// [`NetError::AlreadyExists`] for an existing output without `force`;
+    /// [`NetError::Config`] for an interrupted run without `resume` or `force`;
+    /// [`NetError::Io`].
+    pub fn prepare(&self) -> Result<PathBuf, NetError> {
+        if self.dir.exists() && !self.force {
+            return Err(NetError::AlreadyExists {
+                path: self.dir.clone(),
+            });
+        }
+        let staging = self.staging_dir();
+        if staging.exists() && !self.resume {
+            if self.force {
+                std::fs::remove_dir_all(&staging).map_err(|e| NetError::io(&staging, e))?;
+            } else {
+                return Err(NetError::Config(format!(
+                    "{} holds an interrupted training run: pass --resume to continue it or --force to start over",
+                    staging.display()
+                )));
+            }
+        }
+        std::fs::create_dir_all(&staging).map_err(|e| NetError::io(&staging, e))?;
+        Ok(staging)
+    }
+
     /// The staging folder next to the model folder: `DIR.partial`.
     pub fn staging_dir(&self) -> PathBuf {
         let name = self
@@ -919,7 +947,7 @@ impl TrainTarget {
 /// # Errors
 /// [`NetError::Data`] for an unreadable sequence or image; [`NetError::Config`] for a pass
 /// whose images do not have the camera's size.
-fn add_passes(
+pub(crate) fn add_passes(
     cache: &mut ImageCache,
     zones: &ZoneTable,
     seq: &Sequence,
@@ -1009,26 +1037,8 @@ pub fn train(
             seq.len()
         )));
     }
-    if target.dir.exists() && !target.force {
-        return Err(NetError::AlreadyExists {
-            path: target.dir.clone(),
-        });
-    }
-    let staging = target.staging_dir();
+    let staging = target.prepare()?;
     let ckpt = staging.join("checkpoint");
-    if staging.exists() {
-        if target.resume {
-            // keep it
-        } else if target.force {
-            std::fs::remove_dir_all(&staging).map_err(|e| NetError::io(&staging, e))?;
-        } else {
-            return Err(NetError::Config(format!(
-                "{} holds an interrupted training run: pass --resume to continue it or --force to start over",
-                staging.display()
-            )));
-        }
-    }
-    std::fs::create_dir_all(&staging).map_err(|e| NetError::io(&staging, e))?;
 
     let t_load = Instant::now();
     let size = cfg.backbone.input();

@@ -559,3 +559,131 @@ fn same_seed_trains_the_same_network_bit_for_bit_on_any_thread_count() {
     other.seed += 1;
     assert_ne!(loss_bits(&a), loss_bits(&run(&other)), "another seed");
 }
+
+/// Like [`write_smooth_sequence`], under a random light ramp of each frame's own direction
+/// and strength: what places a frame is learnt, not given by the raw pixels.
+fn write_ramped_sequence(dir: &Path, seed: u64) -> Sequence {
+    let n = (ZONES * PER_ZONE) as f32;
+    write_frames(dir, seed, |i, rng| {
+        let mut im = stripes(i as f32 * std::f32::consts::PI / n, 0.3, rng);
+        let dir: f32 = rng.random_range(0.0..std::f32::consts::TAU);
+        let gain: f32 = rng.random_range(1.0..3.0);
+        let (s, c) = dir.sin_cos();
+        for (x, y, p) in im.enumerate_pixels_mut() {
+            let t = (x as f32 / W as f32 - 0.5) * c + (y as f32 / H as f32 - 0.5) * s;
+            p.0[0] = (p.0[0] as f32 * 0.4 + 128.0 * (1.0 + gain * t)).clamp(0.0, 255.0) as u8;
+        }
+        im
+    })
+}
+
+/// Joint pretraining: two colons, each with a second pass, in one training; their places and
+/// zones kept apart; its weights place the frames of a new pass without further training;
+/// other cameras and existing outputs refused.
+#[test]
+fn joint_pretraining_trains_on_every_colon_at_once_and_its_weights_transfer() {
+    use endoloc_net::pairs::COLON_PLACE_STRIDE;
+    use endoloc_net::pretrain::{PretrainColon, joint_cache, pretrain};
+    let tmp = tempfile::tempdir().unwrap();
+    let colon = |name: &str, seed: u64| {
+        let train = write_ramped_sequence(&tmp.path().join(name).join("train"), seed);
+        let pass = write_ramped_sequence(&tmp.path().join(name).join("test"), seed + 1);
+        PretrainColon {
+            train,
+            passes: vec![pass.dir],
+            camera: camera(),
+        }
+    };
+    let colons = vec![colon("a", 20), colon("b", 30)];
+    let zcfg = ZoneConfig::Uniform {
+        count: ZONES,
+        by: UniformBy::Frames,
+    };
+    let cfg = TrainConfig {
+        pairs: PairRule::Track {
+            positive_frames: 1,
+            negative_frames: 4,
+            near_fraction: 0.5,
+            zone_fraction: 0.0,
+        },
+        ..tiny_config(30)
+    };
+    let n = ZONES * PER_ZONE;
+    let (cache, zones, images) = joint_cache(&colons, &zcfg, &cfg, &mut |_| {}).unwrap();
+    assert_eq!(images, vec![2 * n, 2 * n]);
+    assert_eq!(cache.len(), 4 * n);
+    assert_eq!(zones.len(), 2 * ZONES);
+    // Colon b's training frame 5 and its second pass's frame 5 (same pose) share a place.
+    assert_eq!(cache.along_of(2 * n + 5), COLON_PLACE_STRIDE + 5);
+    assert_eq!(cache.along_of(3 * n + 5), COLON_PLACE_STRIDE + 5);
+    assert_eq!(zones.zone_of_frame[2 * n], ZONES);
+    assert_eq!(zones.zones[ZONES].first_frame, 2 * n);
+
+    let dir = tmp.path().join("joint");
+    let target = TrainTarget {
+        dir: dir.clone(),
+        force: false,
+        resume: true,
+    };
+    let report = pretrain(&cfg, &zcfg, &colons, &target, &mut |_| {}).unwrap();
+    assert_eq!(report.images, images);
+    let (first, last) = (&report.history[0], report.history.last().unwrap());
+    assert!(
+        last.loss < 0.5 * first.loss,
+        "loss {} → {}",
+        first.loss,
+        last.loss
+    );
+    for f in ["weights.safetensors", "pretrain.toml", "history.csv"] {
+        assert!(dir.join(f).is_file(), "{f} missing");
+    }
+    assert!(!dir.join("checkpoint").exists());
+    assert!(!target.staging_dir().exists());
+    let record = std::fs::read_to_string(dir.join("pretrain.toml")).unwrap();
+    assert!(record.contains("rule = \"track\""), "{record}");
+
+    // A new colon: its database from the pretrained weights, one step at a negligible rate
+    // (no training to speak of), places a second pass's frames far better than from random
+    // weights.
+    let seq = write_ramped_sequence(&tmp.path().join("new/train"), 50);
+    let query = write_ramped_sequence(&tmp.path().join("new/test"), 51);
+    let mut errors = Vec::new();
+    for (name, start) in [
+        ("random", None),
+        ("pretrained", Some(dir.join("weights.safetensors"))),
+    ] {
+        let mut cfg = TrainConfig {
+            pretrained: start,
+            ..tiny_config(1)
+        };
+        cfg.schedule.learning_rate = 1e-9;
+        cfg.schedule.final_learning_rate = 1e-9;
+        let model = tmp.path().join(name);
+        train_into(&model, &cfg, &seq, &zones_of(&seq)).unwrap();
+        errors.push(mean_frame_error(
+            &ZoneClassifier::load(&model).unwrap(),
+            &query,
+        ));
+    }
+    eprintln!(
+        "mean frame error: random {}, pretrained {}",
+        errors[0], errors[1]
+    );
+    // Measured: random weights 11.3 frames, pretrained 3.3 (of 48).
+    assert!(
+        errors[1] < 0.4 * errors[0],
+        "random weights {} vs pretrained {} frames",
+        errors[0],
+        errors[1]
+    );
+
+    // An existing folder is kept; a colon of another camera is refused by name.
+    let e = pretrain(&cfg, &zcfg, &colons, &target, &mut |_| {}).unwrap_err();
+    assert!(matches!(e, NetError::AlreadyExists { .. }), "{e}");
+    let mut odd = colons.clone();
+    odd[1].camera = Camera::from_hfov(W, H, 60.0);
+    let e = joint_cache(&odd, &zcfg, &cfg, &mut |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("camera") && e.contains("b/train"), "{e}");
+}

@@ -6,6 +6,10 @@ use anyhow::{Context, Result, bail};
 
 use crate::cmd;
 use crate::cmd::demo::{parse, stage};
+use endoloc_data::Dataset;
+use endoloc_net::pretrain::{PretrainColon, pretrain};
+use endoloc_net::train::{TrainConfig, TrainTarget};
+use endoloc_net::{UniformBy, ZoneConfig};
 
 /// Pretrain the zone classifier's network on simulated colons, each seen in two passes, and
 /// write start weights for `endoloc train --pretrained`.
@@ -72,9 +76,22 @@ pub struct Args {
     /// continue from an earlier pretraining, e.g. with other pairs. Default: random weights.
     #[arg(long, value_name = "WEIGHTS")]
     pretrained: Option<String>,
+    /// Train one network on every colon at once (batches drawn from all of them, each
+    /// negative from its partner's colon) instead of colon after colon. `--epochs` is then
+    /// the whole training's (default 60 per colon).
+    #[arg(long)]
+    joint: bool,
+    /// Track pairs: largest positive and smallest negative frame gap, `P,N` (default 3,10;
+    /// halve them with `--fps 15`).
+    #[arg(long, value_name = "P,N")]
+    pair_frames: Option<String>,
     /// Frames of each pass (default: the preset's).
     #[arg(long, value_name = "N")]
     frames: Option<usize>,
+    /// Frame rate of the simulated passes (default: the preset's, 30); with half the frames,
+    /// 15 renders every second frame of the same passes.
+    #[arg(long, value_name = "FPS")]
+    fps: Option<f64>,
     /// Image width and height WIDTHxHEIGHT (default: the preset's).
     #[arg(long, value_name = "WxH")]
     size: Option<String>,
@@ -106,7 +123,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut previous: Option<String> = args.pretrained.clone();
     for i in 0..args.colons {
         let seed = args.seed + 101 * i as u64;
-        let data = args.out.join(format!("colon-{seed}"));
+        let data = colon_dir(&args, i);
         let model = args.out.join(format!("model-{seed}"));
         let title = format!("colon {} of {}", i + 1, args.colons);
         if data.join("dataset.toml").is_file() {
@@ -126,6 +143,9 @@ pub fn run(args: Args) -> Result<()> {
                 let n = n.to_string();
                 sim.extend(strings(&["--train-frames", &n, "--test-frames", &n]));
             }
+            if let Some(f) = args.fps {
+                sim.extend(strings(&["--fps", &f.to_string()]));
+            }
             if let Some((w, h)) = size {
                 sim.extend(strings(&[
                     "--width",
@@ -136,6 +156,9 @@ pub fn run(args: Args) -> Result<()> {
             }
             stage(&format!("{title}: simulate"), &sim);
             cmd::simulate::run(parse(&sim)?)?;
+        }
+        if args.joint {
+            continue;
         }
         if model.join("weights.safetensors").is_file() {
             eprintln!("== {title}: reusing {}", model.display());
@@ -164,10 +187,16 @@ pub fn run(args: Args) -> Result<()> {
             if let Some(f) = args.near_fraction {
                 train.extend(strings(&["--near-fraction", &f.to_string()]));
             }
+            if let Some(f) = &args.pair_frames {
+                train.extend(strings(&["--pair-frames", f]));
+            }
             stage(&format!("{title}: train"), &train);
             cmd::train::run(parse(&train)?)?;
         }
         previous = Some(path(&model.join("weights.safetensors")));
+    }
+    if args.joint {
+        previous = Some(path(&train_joint(&args)?));
     }
     let last = PathBuf::from(previous.context("no colon was trained")?);
     let tmp = args.out.join("weights.safetensors.partial");
@@ -181,6 +210,79 @@ pub fn run(args: Args) -> Result<()> {
         weights.display()
     );
     Ok(())
+}
+
+/// Folder of colon `i` (simulated) in OUT.
+fn colon_dir(args: &Args, i: usize) -> PathBuf {
+    args.out
+        .join(format!("colon-{}", args.seed + 101 * i as u64))
+}
+
+/// The joint training of `--joint` (OUT/joint, resumed when interrupted); returns its weights.
+fn train_joint(args: &Args) -> Result<PathBuf> {
+    let dir = args.out.join("joint");
+    let weights = dir.join(endoloc_net::model::WEIGHTS_FILE);
+    if weights.is_file() {
+        eprintln!("\n== joint training: reusing {}", dir.display());
+        return Ok(weights);
+    }
+    let colons = (0..args.colons)
+        .map(|i| {
+            let data = colon_dir(args, i);
+            let ds = Dataset::open(&data)?;
+            Ok(PretrainColon {
+                train: ds.sequence("train")?,
+                passes: vec![ds.sequence("test")?.dir],
+                camera: ds.meta.camera,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut cfg = TrainConfig {
+        pretrained: args.pretrained.as_ref().map(PathBuf::from),
+        ..TrainConfig::default()
+    };
+    cfg.pairs = cmd::train::pair_rule_from(
+        args.pairs.as_deref(),
+        args.pair_frames.as_deref(),
+        args.near_fraction,
+        None,
+        cfg.pairs,
+    )?;
+    cfg.schedule.epochs = args.epochs.unwrap_or(60 * args.colons);
+    cfg.validation.every_epochs = (cfg.schedule.epochs / 6).max(25);
+    cfg.validate()?;
+    let zones = ZoneConfig::Uniform {
+        count: args.zones,
+        by: UniformBy::ArcLength,
+    };
+    eprintln!(
+        "\n== joint training: {} colons at once, {} epochs of {} pairs → {}",
+        colons.len(),
+        cfg.schedule.epochs,
+        cfg.schedule.pairs_per_epoch,
+        dir.display()
+    );
+    let target = TrainTarget {
+        dir: dir.clone(),
+        force: args.force,
+        resume: true,
+    };
+    let mut bars = cmd::train::TrainBars::default();
+    let report = pretrain(&cfg, &zones, &colons, &target, &mut |p| bars.show(p))?;
+    bars.clear();
+    println!(
+        "joint     {} images from {} colons, {} steps in {:.0} s (loading {:.0} s), final loss {}",
+        report.images.iter().sum::<usize>(),
+        report.images.len(),
+        report.steps,
+        report.train_s,
+        report.load_s,
+        report
+            .history
+            .last()
+            .map_or("-".into(), |r| format!("{:.4}", r.loss))
+    );
+    Ok(weights)
 }
 
 fn strings(v: &[&str]) -> Vec<String> {

@@ -80,6 +80,12 @@ pub struct Args {
     #[arg(long)]
     test_frames: Option<usize>,
 
+    /// Frame rate of both passes, frames per second (default: the preset's, 30). A pass
+    /// lasts frames / fps seconds and covers the whole colon whatever the frame count: half
+    /// the frames at half the rate is the same pass sampled every second frame.
+    #[arg(long)]
+    fps: Option<f64>,
+
     /// Image width, pixels.
     #[arg(long)]
     width: Option<u32>,
@@ -166,6 +172,10 @@ impl Args {
         }
         if let Some(n) = self.test_frames {
             cfg.test.frames = n;
+        }
+        if let Some(f) = self.fps {
+            cfg.train.fps = f;
+            cfg.test.fps = f;
         }
         if let Some(w) = self.width {
             cfg.camera.width = w;

@@ -8,7 +8,7 @@ use endoloc_data::Dataset;
 
 use crate::cmd::baselines::{Regressor, train_regressor};
 use endoloc_net::backbone::{BackboneConfig, Pooling};
-use endoloc_net::train::{Phase, Schedule, TrainConfig, TrainTarget, train};
+use endoloc_net::train::{Phase, Schedule, TrainConfig, TrainProgress, TrainTarget, train};
 use endoloc_net::{AugmentConfig, PairRule, UniformBy, ZoneConfig, ZoneTable};
 
 /// Train the zone classifier (a Siamese network with the paper's contrastive loss) on the
@@ -203,7 +203,25 @@ fn zone_config(spec: &str, by: &str) -> Result<ZoneConfig> {
 /// `--pairs`, `--pair-frames`, `--near-fraction` applied to `rule` (from the config or the
 /// default).
 fn pair_rule(args: &Args, rule: PairRule) -> Result<PairRule> {
-    let mut rule = match args.pairs.as_deref().map(|s| s.trim().to_ascii_lowercase()) {
+    pair_rule_from(
+        args.pairs.as_deref(),
+        args.pair_frames.as_deref(),
+        args.near_fraction,
+        args.zone_fraction,
+        rule,
+    )
+}
+
+/// `--pairs RULE`, `--pair-frames P,N`, `--near-fraction F` and `--zone-fraction F` applied
+/// to `rule`.
+pub(crate) fn pair_rule_from(
+    pairs: Option<&str>,
+    pair_frames: Option<&str>,
+    near: Option<f32>,
+    zone: Option<f32>,
+    rule: PairRule,
+) -> Result<PairRule> {
+    let mut rule = match pairs.map(|s| s.trim().to_ascii_lowercase()) {
         None => rule,
         Some(s) if s == "zone" => PairRule::Zone,
         Some(s) if s == "track" => match rule {
@@ -212,8 +230,7 @@ fn pair_rule(args: &Args, rule: PairRule) -> Result<PairRule> {
         },
         Some(other) => bail!("--pairs {other}: expected `zone` or `track`"),
     };
-    let tuning =
-        args.pair_frames.is_some() || args.near_fraction.is_some() || args.zone_fraction.is_some();
+    let tuning = pair_frames.is_some() || near.is_some() || zone.is_some();
     match &mut rule {
         PairRule::Track {
             positive_frames,
@@ -221,7 +238,7 @@ fn pair_rule(args: &Args, rule: PairRule) -> Result<PairRule> {
             near_fraction,
             zone_fraction,
         } => {
-            if let Some(spec) = &args.pair_frames {
+            if let Some(spec) = pair_frames {
                 let parsed = spec
                     .split_once(',')
                     .and_then(|(p, n)| Some((p.trim().parse().ok()?, n.trim().parse().ok()?)));
@@ -230,10 +247,10 @@ fn pair_rule(args: &Args, rule: PairRule) -> Result<PairRule> {
                 };
                 (*positive_frames, *negative_frames) = (p, n);
             }
-            if let Some(f) = args.near_fraction {
+            if let Some(f) = near {
                 *near_fraction = f;
             }
-            if let Some(f) = args.zone_fraction {
+            if let Some(f) = zone {
                 *zone_fraction = f;
             }
         }
@@ -320,6 +337,48 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
     Ok(cfg)
 }
 
+/// Progress bars of a training: one per phase, the loss and validation accuracy on the
+/// training bar.
+#[derive(Default)]
+pub(crate) struct TrainBars {
+    bar: Option<(Phase, indicatif::ProgressBar)>,
+}
+
+impl TrainBars {
+    /// Shows `p`, starting a new bar when the phase changes.
+    pub(crate) fn show(&mut self, p: &TrainProgress) {
+        if self.bar.as_ref().is_none_or(|(ph, _)| *ph != p.phase) {
+            if let Some((_, b)) = self.bar.take() {
+                b.finish();
+            }
+            let label = match p.phase {
+                Phase::LoadingImages => "loading",
+                Phase::Training => "training",
+                Phase::Describing => "describing",
+                Phase::Saving => "saving",
+            };
+            self.bar = Some((p.phase, crate::ui::progress_bar(p.total as u64, label)));
+        }
+        if let Some((_, b)) = &self.bar {
+            b.set_position(p.done as u64);
+            if p.phase == Phase::Training {
+                let loss = p.loss.map_or("-".into(), |l| format!("{l:.4}"));
+                let val = p
+                    .val_accuracy
+                    .map_or(String::new(), |a| format!(" val {:.1}%", 100.0 * a));
+                b.set_message(format!("ep {} loss {loss}{val}", p.epoch));
+            }
+        }
+    }
+
+    /// Removes the last bar.
+    pub(crate) fn clear(&mut self) {
+        if let Some((_, b)) = self.bar.take() {
+            b.finish_and_clear();
+        }
+    }
+}
+
 /// What `endoloc train` trains.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum TrainMethod {
@@ -396,7 +455,7 @@ pub fn run(args: Args) -> Result<()> {
         resume: args.resume,
     };
     let t0 = Instant::now();
-    let mut bar: Option<(Phase, indicatif::ProgressBar)> = None;
+    let mut bars = TrainBars::default();
     let report = train(
         &cfg,
         &seq,
@@ -404,34 +463,9 @@ pub fn run(args: Args) -> Result<()> {
         &dataset.meta.camera,
         &dataset.meta.name,
         &target,
-        &mut |p| {
-            if bar.as_ref().is_none_or(|(ph, _)| *ph != p.phase) {
-                if let Some((_, b)) = bar.take() {
-                    b.finish();
-                }
-                let label = match p.phase {
-                    Phase::LoadingImages => "loading",
-                    Phase::Training => "training",
-                    Phase::Describing => "describing",
-                    Phase::Saving => "saving",
-                };
-                bar = Some((p.phase, crate::ui::progress_bar(p.total as u64, label)));
-            }
-            if let Some((_, b)) = &bar {
-                b.set_position(p.done as u64);
-                if p.phase == Phase::Training {
-                    let loss = p.loss.map_or("-".into(), |l| format!("{l:.4}"));
-                    let val = p
-                        .val_accuracy
-                        .map_or(String::new(), |a| format!(" val {:.1}%", 100.0 * a));
-                    b.set_message(format!("ep {} loss {loss}{val}", p.epoch));
-                }
-            }
-        },
+        &mut |p| bars.show(p),
     )?;
-    if let Some((_, b)) = bar.take() {
-        b.finish_and_clear();
-    }
+    bars.clear();
     let last = report.history.last();
     if let Some(n) = report.resumed_after_epoch {
         println!("resumed      after epoch {n}");
