@@ -222,11 +222,18 @@ impl TrainConfig {
     pub fn validate(&self) -> Result<(), NetError> {
         self.backbone.validate()?;
         let s = &self.schedule;
-        if s.epochs == 0 || s.pairs_per_epoch < 2 || s.batch_pairs < 2 {
+        if s.pairs_per_epoch < 2 || s.batch_pairs < 2 {
             return Err(NetError::Config(format!(
-                "schedule: epochs {} ≥ 1, pairs_per_epoch {} ≥ 2 and batch_pairs {} ≥ 2 expected",
-                s.epochs, s.pairs_per_epoch, s.batch_pairs
+                "schedule: pairs_per_epoch {} ≥ 2 and batch_pairs {} ≥ 2 expected",
+                s.pairs_per_epoch, s.batch_pairs
             )));
+        }
+        if s.epochs == 0 && self.pretrained.is_none() {
+            return Err(NetError::Config(
+                "schedule: 0 epochs (no optimisation, only the database) needs start weights \
+                 (pretrained); from random weights train at least one epoch"
+                    .into(),
+            ));
         }
         if !(s.learning_rate > 0.0 && s.final_learning_rate > 0.0) {
             return Err(NetError::Config("learning rates must be positive".into()));

@@ -687,3 +687,38 @@ fn joint_pretraining_trains_on_every_colon_at_once_and_its_weights_transfer() {
         .to_string();
     assert!(e.contains("camera") && e.contains("b/train"), "{e}");
 }
+
+/// `epochs = 0` with start weights: no optimisation, the database of the pass from the start
+/// weights as they are — the same rows a model with those weights wrote. Refused from random
+/// weights.
+#[test]
+fn zero_epochs_index_the_pass_with_the_start_weights_and_need_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = write_sequence(&tmp.path().join("train"), 60);
+    let zones = zones_of(&seq);
+    let first = tmp.path().join("first");
+    train_into(&first, &tiny_config(4), &seq, &zones).unwrap();
+    let mut cfg = TrainConfig {
+        pretrained: Some(first.join("weights.safetensors")),
+        ..tiny_config(4)
+    };
+    cfg.schedule.epochs = 0;
+    let indexed = tmp.path().join("indexed");
+    let report = train_into(&indexed, &cfg, &seq, &zones).unwrap();
+    assert_eq!(report.steps, 0);
+    assert!(report.history.is_empty());
+    let (a, b) = (
+        ZoneClassifier::load(&first).unwrap(),
+        ZoneClassifier::load(&indexed).unwrap(),
+    );
+    assert_eq!(a.database().len(), b.database().len());
+    for i in 0..a.database().len() {
+        assert_eq!(a.database().row(i), b.database().row(i), "row {i}");
+    }
+
+    cfg.pretrained = None;
+    let e = train_into(&tmp.path().join("none"), &cfg, &seq, &zones)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("0 epochs") && e.contains("start weights"), "{e}");
+}

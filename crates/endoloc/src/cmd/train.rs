@@ -133,7 +133,9 @@ pub struct Args {
     #[arg(long, value_name = "TOML")]
     config: Option<PathBuf>,
 
-    /// Number of epochs (overrides the schedule).
+    /// Number of epochs (overrides the schedule). 0, with --pretrained: no optimisation,
+    /// only the database of the training pass from the start weights as they are (seconds;
+    /// from `builtin-track` about as good as a fine-tune on the `paper` preset).
     #[arg(long)]
     epochs: Option<usize>,
 
