@@ -96,6 +96,7 @@ fn localizer(f: &Fixture, cfg: LocalizerConfig) -> Localizer {
         },
         temporal: TemporalConfig::default(),
         track: Default::default(),
+        whitening: None,
         train: TrainConfig::default(),
     };
     let clf = ZoneClassifier::from_parts(

@@ -68,6 +68,7 @@ fn classifier() -> ZoneClassifier {
         zones: zcfg,
         temporal: TemporalConfig::default(),
         track: Default::default(),
+        whitening: None,
         train: TrainConfig::default(),
     };
     ZoneClassifier::from_parts(

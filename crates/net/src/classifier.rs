@@ -22,6 +22,7 @@ use crate::backbone::{BackboneConfig, EmbeddingNet};
 use crate::database::{DATABASE_FILE, DescriptorDatabase, ZonePrediction};
 use crate::model::{self, ModelConfig};
 use crate::preprocess::network_input;
+use crate::whiten::{WHITENING_FILE, Whitening};
 use crate::zones::{ZONES_FILE, ZoneTable};
 use burn::module::Module;
 use burn::tensor::Device;
@@ -47,15 +48,23 @@ struct Branch {
     dir: PathBuf,
     backbone: BackboneConfig,
     net: EmbeddingNet,
+    /// Applied to the network's descriptors ([`crate::whiten`]), when the model has one.
+    whitening: Option<Whitening>,
     batch: usize,
 }
 
 impl Branch {
-    fn new(dir: PathBuf, config: &ModelConfig, net: EmbeddingNet) -> Self {
+    fn new(
+        dir: PathBuf,
+        config: &ModelConfig,
+        net: EmbeddingNet,
+        whitening: Option<Whitening>,
+    ) -> Self {
         Branch {
             dir,
             backbone: config.backbone.clone(),
             net,
+            whitening,
             batch: config.train.inference_batch.max(1),
         }
     }
@@ -131,9 +140,16 @@ impl ZoneClassifier {
         }
         let net =
             model::load_weights(&config.backbone, &dir.join(model::WEIGHTS_FILE), &device)?.valid();
+        let whitening = match config.whitening {
+            Some(_) => Some(Whitening::load(
+                &dir.join(WHITENING_FILE),
+                config.backbone.descriptor_dim(),
+            )?),
+            None => None,
+        };
         Ok(ZoneClassifier {
             dir: dir.to_path_buf(),
-            nets: vec![Branch::new(dir.to_path_buf(), &config, net)],
+            nets: vec![Branch::new(dir.to_path_buf(), &config, net, whitening)],
             config,
             device,
             zones,
@@ -177,7 +193,7 @@ impl ZoneClassifier {
             });
         }
         Ok(ZoneClassifier {
-            nets: vec![Branch::new(dir.clone(), &config, net)],
+            nets: vec![Branch::new(dir.clone(), &config, net, None)],
             dir,
             config,
             device,
@@ -430,7 +446,10 @@ impl ZoneClassifier {
                 let range = start..(start + branch.batch).min(n);
                 let len = range.len();
                 let buf = input(branch, range);
-                let v = crate::train::forward_values(&branch.net, &self.device, buf, len, size);
+                let mut v = crate::train::forward_values(&branch.net, &self.device, buf, len, size);
+                if let Some(w) = &branch.whitening {
+                    v = w.apply_rows(&v);
+                }
                 for (row, d) in out[start..].iter_mut().zip(v.chunks_exact(dim)) {
                     if self.nets.len() == 1 {
                         row.extend_from_slice(d);

@@ -34,6 +34,7 @@ pub mod regress;
 pub mod temporal;
 pub mod track;
 pub mod train;
+pub mod whiten;
 pub mod zones;
 
 pub use augment::AugmentConfig;

@@ -68,6 +68,11 @@ pub struct ModelConfig {
     /// before it existed get the defaults.
     #[serde(default)]
     pub track: TrackConfig,
+    /// Power of the whitening in `whitening.bin` ([`crate::whiten`]) applied to every
+    /// descriptor, database rows included; none for raw network descriptors (and for models
+    /// written before whitening existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub whitening: Option<f32>,
     /// The training run.
     pub train: TrainConfig,
 }

@@ -102,6 +102,9 @@ fn tiny_config(epochs: usize) -> TrainConfig {
         },
         checkpoint_every_epochs: 1,
         seed: 7,
+        // 48 frames of 16-d descriptors are too few to learn a whitening from; the model
+        // round trip turns it on.
+        whitening: 0.0,
         // The device is named explicitly (never `Device::default()` / BURN_DEVICE).
         device: "cpu".into(),
         ..TrainConfig::default()
@@ -192,7 +195,10 @@ fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras
     let tmp = tempfile::tempdir().unwrap();
     let seq = write_sequence(&tmp.path().join("train"), 2);
     let zones = zones_of(&seq);
-    let cfg = tiny_config(12);
+    let cfg = TrainConfig {
+        whitening: 0.25,
+        ..tiny_config(12)
+    };
     let target = TrainTarget {
         dir: tmp.path().join("model"),
         force: false,
@@ -216,6 +222,7 @@ fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras
         "database.bin",
         "train_poses.txt",
         "history.csv",
+        "whitening.bin",
     ] {
         assert!(target.dir.join(f).is_file(), "{f} missing");
     }
@@ -260,6 +267,11 @@ fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras
         .unwrap_err()
         .to_string();
     assert!(e.contains("7 values"), "{e}");
+    // The descriptors are whitened ones: unit length, not the network's own.
+    for q in &d {
+        let n = q.iter().map(|v| v * v).sum::<f32>().sqrt();
+        assert!((n - 1.0).abs() < 1e-4, "norm {n}");
+    }
     // Loading twice gives bit-identical descriptors.
     let again = ZoneClassifier::load(&target.dir)
         .unwrap()
@@ -395,6 +407,11 @@ fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras
         .unwrap_err()
         .to_string();
     assert!(err.contains("10x10"), "{err}");
+
+    // A model whose whitening file is gone says so.
+    std::fs::remove_file(target.dir.join("whitening.bin")).unwrap();
+    let err = ZoneClassifier::load(&target.dir).unwrap_err().to_string();
+    assert!(err.contains("whitening.bin"), "{err}");
 }
 
 #[test]

