@@ -281,6 +281,38 @@ impl DescriptorDatabase {
     }
 }
 
+/// Each row replaced by the normalised sum of the rows within `half_width` of it (fewer at
+/// the ends): the database of a pass smoothed along it, rows being its frames in order.
+///
+/// A training frame's descriptor then speaks for the few millimetres of the pass around it
+/// rather than for one view, which a test frame from elsewhere in the lumen matches better —
+/// database-side augmentation in image retrieval (Arandjelović & Zisserman, "Three things
+/// everyone should know to improve object retrieval", CVPR 2012), here with the neighbours
+/// the pass gives. Test frames are not smoothed: each is still looked up alone. On the
+/// simulator's `paper` preset, after whitening, ±3 frames add 1.2–1.4 points of exact zone
+/// accuracy per frame (chosen on a second pass). `half_width = 0` returns the rows as they are.
+pub fn smooth_along_pass(rows: &[f32], dim: usize, half_width: usize) -> Vec<f32> {
+    if half_width == 0 || dim == 0 {
+        return rows.to_vec();
+    }
+    let n = rows.len() / dim;
+    let mut out = vec![0.0f32; n * dim];
+    for (i, o) in out.chunks_exact_mut(dim).enumerate() {
+        for r in rows[i.saturating_sub(half_width) * dim..(i + half_width + 1).min(n) * dim]
+            .chunks_exact(dim)
+        {
+            for (a, v) in o.iter_mut().zip(r) {
+                *a += v;
+            }
+        }
+        let norm = o.iter().map(|v| v * v).sum::<f32>().sqrt();
+        if norm > 0.0 {
+            o.iter_mut().for_each(|v| *v /= norm);
+        }
+    }
+    out
+}
+
 /// Squared Euclidean distance between two descriptors of equal length.
 ///
 /// Summed in eight independent lanes, so that the compiler keeps the loop in SIMD registers
@@ -320,6 +352,28 @@ mod tests {
             vec![0, 0, 1, 1],
         )
         .unwrap()
+    }
+
+    #[test]
+    fn smoothing_along_the_pass_averages_neighbours_and_keeps_unit_rows() {
+        // Five frames of 2-d rows: (1,0) (1,0) (0,1) (1,0) (1,0).
+        let rows = [1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 0.0];
+        assert_eq!(smooth_along_pass(&rows, 2, 0), rows.to_vec());
+        let s = smooth_along_pass(&rows, 2, 1);
+        let close =
+            |a: &[f32], b: [f32; 2]| (a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6;
+        // Frame 0 sees frames 0–1; frame 2 sees 1–3: (2, 1) normalised; frame 1 sees 0–2.
+        assert!(close(&s[0..2], [1.0, 0.0]), "{s:?}");
+        let (a, b) = (2.0 / 5f32.sqrt(), 1.0 / 5f32.sqrt());
+        assert!(close(&s[4..6], [a, b]), "{s:?}");
+        assert!(close(&s[2..4], [a, b]), "{s:?}");
+        for r in s.chunks_exact(2) {
+            assert!(((r[0] * r[0] + r[1] * r[1]).sqrt() - 1.0).abs() < 1e-6);
+        }
+        // A half-width past the pass covers it all.
+        let all = smooth_along_pass(&rows, 2, 10);
+        let (c, d) = (4.0 / 17f32.sqrt(), 1.0 / 17f32.sqrt());
+        assert!(all.chunks_exact(2).all(|r| close(r, [c, d])), "{all:?}");
     }
 
     #[test]

@@ -13,7 +13,7 @@
 use crate::NetError;
 use crate::augment::{AugmentConfig, augment};
 use crate::backbone::{BackboneConfig, EmbeddingNet};
-use crate::database::{DescriptorDatabase, ScoreRule};
+use crate::database::{DescriptorDatabase, ScoreRule, smooth_along_pass};
 use crate::loss::{DEFAULT_MARGIN, contrastive_loss};
 use crate::model::{self, ModelConfig};
 use crate::optimise::{cosine_learning_rate, descend};
@@ -194,7 +194,13 @@ pub struct TrainConfig {
     /// Power of the partial PCA whitening learnt from the database at the end
     /// ([`crate::whiten`]; 0: none, the network's descriptors as they are). Default ¼.
     pub whitening: f32,
+    /// Database rows smoothed along the training pass over ± this many frames, after the
+    /// whitening ([`crate::database::smooth_along_pass`]; 0: none). Default 3.
+    pub database_smoothing: usize,
 }
+
+/// Default [`TrainConfig::database_smoothing`], chosen on a second pass of the `paper` colon.
+pub const DEFAULT_DATABASE_SMOOTHING: usize = 3;
 
 /// Default [`TrainConfig::whitening`]: chosen on a second pass of the simulator's `paper`
 /// colon (¼ and ⅕ within 1 point; ½ loses 20).
@@ -219,6 +225,7 @@ impl Default for TrainConfig {
             pretrained: None,
             extra_sequences: Vec::new(),
             whitening: DEFAULT_WHITENING,
+            database_smoothing: DEFAULT_DATABASE_SMOOTHING,
         }
     }
 }
@@ -1133,6 +1140,7 @@ pub fn train(
     } else {
         (descriptors, None)
     };
+    let descriptors = smooth_along_pass(&descriptors, dim, cfg.database_smoothing);
     let describe_s = t_desc.elapsed().as_secs_f64();
     let db = DescriptorDatabase::new(dim, zones.len(), descriptors, zones.zone_of_frame.clone())?;
     progress(&TrainProgress::outside_training(Phase::Saving, 0, 1));

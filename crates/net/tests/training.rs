@@ -105,6 +105,7 @@ fn tiny_config(epochs: usize) -> TrainConfig {
         // 48 frames of 16-d descriptors are too few to learn a whitening from; the model
         // round trip turns it on.
         whitening: 0.0,
+        database_smoothing: 0,
         // The device is named explicitly (never `Device::default()` / BURN_DEVICE).
         device: "cpu".into(),
         ..TrainConfig::default()
@@ -732,6 +733,16 @@ fn zero_epochs_index_the_pass_with_the_start_weights_and_need_them() {
     for i in 0..a.database().len() {
         assert_eq!(a.database().row(i), b.database().row(i), "row {i}");
     }
+
+    // Smoothed along the pass, the rows are the smoothed rows of the first model.
+    cfg.database_smoothing = 2;
+    let smoothed = tmp.path().join("smoothed");
+    train_into(&smoothed, &cfg, &seq, &zones).unwrap();
+    let c = ZoneClassifier::load(&smoothed).unwrap();
+    let want =
+        endoloc_net::database::smooth_along_pass(&a.database().descriptors, a.database().dim, 2);
+    assert_eq!(c.database().descriptors, want);
+    assert_ne!(c.database().descriptors, a.database().descriptors);
 
     cfg.pretrained = None;
     let e = train_into(&tmp.path().join("none"), &cfg, &seq, &zones)
