@@ -281,26 +281,40 @@ impl DescriptorDatabase {
     }
 }
 
-/// Each row replaced by the normalised sum of the rows within `half_width` of it (fewer at
-/// the ends): the database of a pass smoothed along it, rows being its frames in order.
+/// Each row replaced by the normalised sum of the rows whose place along the pass lies
+/// within `radius_mm` of its own: the database of a pass smoothed along it. `path_mm[i]` is
+/// the camera path length at row `i` (non-decreasing, [`crate::zones::cumulative_path_mm`]).
 ///
 /// A training frame's descriptor then speaks for the few millimetres of the pass around it
 /// rather than for one view, which a test frame from elsewhere in the lumen matches better —
 /// database-side augmentation in image retrieval (Arandjelović & Zisserman, "Three things
 /// everyone should know to improve object retrieval", CVPR 2012), here with the neighbours
 /// the pass gives. Test frames are not smoothed: each is still looked up alone. On the
-/// simulator's `paper` preset, after whitening, ±3 frames add 1.2–1.4 points of exact zone
-/// accuracy per frame (chosen on a second pass). `half_width = 0` returns the rows as they are.
-pub fn smooth_along_pass(rows: &[f32], dim: usize, half_width: usize) -> Vec<f32> {
-    if half_width == 0 || dim == 0 {
+/// simulator's `paper` preset (0.54 mm of path per frame on average), after whitening,
+/// ±1.6 mm (±3 frames) adds 1.2–1.4 points of exact zone accuracy per frame (chosen on a
+/// second pass). `radius_mm = 0` returns the rows as they are.
+///
+/// # Panics
+/// Never; rows beyond `path_mm` (a shorter slice) are taken alone.
+pub fn smooth_along_pass(rows: &[f32], dim: usize, path_mm: &[f64], radius_mm: f64) -> Vec<f32> {
+    if radius_mm.is_nan() || radius_mm <= 0.0 || dim == 0 {
         return rows.to_vec();
     }
     let n = rows.len() / dim;
-    let mut out = vec![0.0f32; n * dim];
-    for (i, o) in out.chunks_exact_mut(dim).enumerate() {
-        for r in rows[i.saturating_sub(half_width) * dim..(i + half_width + 1).min(n) * dim]
-            .chunks_exact(dim)
-        {
+    let mut out = rows[..n * dim].to_vec();
+    let (mut lo, mut hi) = (0usize, 0usize);
+    for i in 0..n.min(path_mm.len()) {
+        let s = path_mm[i];
+        while path_mm[lo] < s - radius_mm {
+            lo += 1;
+        }
+        hi = hi.max(i);
+        while hi + 1 < n.min(path_mm.len()) && path_mm[hi + 1] <= s + radius_mm {
+            hi += 1;
+        }
+        let o = &mut out[i * dim..(i + 1) * dim];
+        o.fill(0.0);
+        for r in rows[lo * dim..(hi + 1) * dim].chunks_exact(dim) {
             for (a, v) in o.iter_mut().zip(r) {
                 *a += v;
             }
@@ -356,22 +370,26 @@ mod tests {
 
     #[test]
     fn smoothing_along_the_pass_averages_neighbours_and_keeps_unit_rows() {
-        // Five frames of 2-d rows: (1,0) (1,0) (0,1) (1,0) (1,0).
+        // Five frames of 2-d rows, (1,0) (1,0) (0,1) (1,0) (1,0), 1 mm apart.
         let rows = [1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 0.0];
-        assert_eq!(smooth_along_pass(&rows, 2, 0), rows.to_vec());
-        let s = smooth_along_pass(&rows, 2, 1);
+        let path = [0.0, 1.0, 2.0, 3.0, 4.0];
+        assert_eq!(smooth_along_pass(&rows, 2, &path, 0.0), rows.to_vec());
         let close =
             |a: &[f32], b: [f32; 2]| (a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6;
-        // Frame 0 sees frames 0–1; frame 2 sees 1–3: (2, 1) normalised; frame 1 sees 0–2.
+        let s = smooth_along_pass(&rows, 2, &path, 1.0);
+        // Frame 0 sees frames 0–1; frames 1 to 3 see one (0,1) among three: (2, 1) normalised.
         assert!(close(&s[0..2], [1.0, 0.0]), "{s:?}");
         let (a, b) = (2.0 / 5f32.sqrt(), 1.0 / 5f32.sqrt());
-        assert!(close(&s[4..6], [a, b]), "{s:?}");
-        assert!(close(&s[2..4], [a, b]), "{s:?}");
+        for f in 1..4 {
+            assert!(close(&s[2 * f..2 * f + 2], [a, b]), "frame {f}: {s:?}");
+        }
         for r in s.chunks_exact(2) {
             assert!(((r[0] * r[0] + r[1] * r[1]).sqrt() - 1.0).abs() < 1e-6);
         }
-        // A half-width past the pass covers it all.
-        let all = smooth_along_pass(&rows, 2, 10);
+        // A pause (frames at one place) is one place; a radius past the pass covers it all.
+        let paused = smooth_along_pass(&rows, 2, &[0.0, 5.0, 5.0, 5.0, 10.0], 1.0);
+        assert!(close(&paused[0..2], [1.0, 0.0]) && close(&paused[2..4], [a, b]));
+        let all = smooth_along_pass(&rows, 2, &path, 100.0);
         let (c, d) = (4.0 / 17f32.sqrt(), 1.0 / 17f32.sqrt());
         assert!(all.chunks_exact(2).all(|r| close(r, [c, d])), "{all:?}");
     }

@@ -22,7 +22,7 @@ use crate::preprocess::{InputSize, resize_area, standardize};
 use crate::regress::view::ViewIntrinsics;
 use crate::temporal::TemporalConfig;
 use crate::whiten::{WHITENING_FILE, Whitening};
-use crate::zones::{TRUTH_ANGLE_WEIGHT_MM_PER_DEG, ZoneTable, nearest_frame};
+use crate::zones::{TRUTH_ANGLE_WEIGHT_MM_PER_DEG, ZoneTable, cumulative_path_mm, nearest_frame};
 use burn::module::Module;
 use burn::optim::AdamConfig;
 use burn::tensor::{Device, Int, Tensor, TensorData};
@@ -194,13 +194,14 @@ pub struct TrainConfig {
     /// Power of the partial PCA whitening learnt from the database at the end
     /// ([`crate::whiten`]; 0: none, the network's descriptors as they are). Default ¼.
     pub whitening: f32,
-    /// Database rows smoothed along the training pass over ± this many frames, after the
-    /// whitening ([`crate::database::smooth_along_pass`]; 0: none). Default 3.
-    pub database_smoothing: usize,
+    /// Database rows smoothed along the training pass over ± this camera path length, mm,
+    /// after the whitening ([`crate::database::smooth_along_pass`]; 0: none). Default 1.6.
+    pub database_smoothing_mm: f64,
 }
 
-/// Default [`TrainConfig::database_smoothing`], chosen on a second pass of the `paper` colon.
-pub const DEFAULT_DATABASE_SMOOTHING: usize = 3;
+/// Default [`TrainConfig::database_smoothing_mm`]: ±3 frames of the `paper` preset, chosen
+/// on a second pass of its colon.
+pub const DEFAULT_DATABASE_SMOOTHING_MM: f64 = 1.6;
 
 /// Default [`TrainConfig::whitening`]: chosen on a second pass of the simulator's `paper`
 /// colon (¼ and ⅕ within 1 point; ½ loses 20).
@@ -225,7 +226,7 @@ impl Default for TrainConfig {
             pretrained: None,
             extra_sequences: Vec::new(),
             whitening: DEFAULT_WHITENING,
-            database_smoothing: DEFAULT_DATABASE_SMOOTHING,
+            database_smoothing_mm: DEFAULT_DATABASE_SMOOTHING_MM,
         }
     }
 }
@@ -266,6 +267,12 @@ impl TrainConfig {
             ));
         }
         self.pairs.validate()?;
+        if !(self.database_smoothing_mm >= 0.0 && self.database_smoothing_mm.is_finite()) {
+            return Err(NetError::Config(format!(
+                "database_smoothing_mm {} must be 0 (none) or a positive length",
+                self.database_smoothing_mm
+            )));
+        }
         if !(self.whitening == 0.0 || (self.whitening > 0.0 && self.whitening <= 0.5)) {
             return Err(NetError::Config(format!(
                 "whitening {} must be 0 (none) or in (0, 0.5]",
@@ -1140,7 +1147,8 @@ pub fn train(
     } else {
         (descriptors, None)
     };
-    let descriptors = smooth_along_pass(&descriptors, dim, cfg.database_smoothing);
+    let path_mm = cumulative_path_mm(&seq.poses.iter().map(|p| p.pose).collect::<Vec<_>>());
+    let descriptors = smooth_along_pass(&descriptors, dim, &path_mm, cfg.database_smoothing_mm);
     let describe_s = t_desc.elapsed().as_secs_f64();
     let db = DescriptorDatabase::new(dim, zones.len(), descriptors, zones.zone_of_frame.clone())?;
     progress(&TrainProgress::outside_training(Phase::Saving, 0, 1));

@@ -105,7 +105,7 @@ fn tiny_config(epochs: usize) -> TrainConfig {
         // 48 frames of 16-d descriptors are too few to learn a whitening from; the model
         // round trip turns it on.
         whitening: 0.0,
-        database_smoothing: 0,
+        database_smoothing_mm: 0.0,
         // The device is named explicitly (never `Device::default()` / BURN_DEVICE).
         device: "cpu".into(),
         ..TrainConfig::default()
@@ -735,12 +735,18 @@ fn zero_epochs_index_the_pass_with_the_start_weights_and_need_them() {
     }
 
     // Smoothed along the pass, the rows are the smoothed rows of the first model.
-    cfg.database_smoothing = 2;
+    // (frames are 1 mm apart: ±2 mm is ±2 frames.)
+    cfg.database_smoothing_mm = 2.0;
     let smoothed = tmp.path().join("smoothed");
     train_into(&smoothed, &cfg, &seq, &zones).unwrap();
     let c = ZoneClassifier::load(&smoothed).unwrap();
-    let want =
-        endoloc_net::database::smooth_along_pass(&a.database().descriptors, a.database().dim, 2);
+    let path: Vec<f64> = (0..seq.len()).map(|i| i as f64).collect();
+    let want = endoloc_net::database::smooth_along_pass(
+        &a.database().descriptors,
+        a.database().dim,
+        &path,
+        2.0,
+    );
     assert_eq!(c.database().descriptors, want);
     assert_ne!(c.database().descriptors, a.database().descriptors);
 

@@ -132,10 +132,10 @@ pub struct Args {
     whitening: Option<f32>,
 
     /// Smooth the database along the training pass: each training frame's descriptor becomes
-    /// the mean of those within ±N frames (default 3; 0: none). Test frames are still looked
-    /// up one by one. On the `paper` preset it adds 1–1.5 points per frame after whitening.
-    #[arg(long, value_name = "N")]
-    database_smoothing: Option<usize>,
+    /// the mean of those within ±MM of camera path (default 1.6; 0: none). Test frames are
+    /// still looked up one by one. On the `paper` preset it adds 1–1.5 points per frame.
+    #[arg(long, value_name = "MM")]
+    database_smoothing: Option<f64>,
 
     /// Schedule preset: `fast` or `paper`.
     #[arg(long, default_value = "fast")]
@@ -342,8 +342,8 @@ fn train_config(args: &Args) -> Result<TrainConfig> {
     if let Some(p) = args.whitening {
         cfg.whitening = p;
     }
-    if let Some(n) = args.database_smoothing {
-        cfg.database_smoothing = n;
+    if let Some(mm) = args.database_smoothing {
+        cfg.database_smoothing_mm = mm;
     }
     cfg.seed = args.seed;
     cfg.device = args.device.clone();
