@@ -291,8 +291,8 @@ impl DescriptorDatabase {
 /// everyone should know to improve object retrieval", CVPR 2012), here with the neighbours
 /// the pass gives. Test frames are not smoothed: each is still looked up alone. On the
 /// simulator's `paper` preset (0.54 mm of path per frame on average), after whitening,
-/// ±1.6 mm (±3 frames) adds 1.2–1.4 points of exact zone accuracy per frame (chosen on a
-/// second pass). `radius_mm = 0` returns the rows as they are.
+/// ±2.2 mm adds 1.4 points of exact zone accuracy per frame on the test pass and 1.5 on a
+/// second pass (chosen on that one). `radius_mm = 0` returns the rows as they are.
 ///
 /// # Panics
 /// Never; rows beyond `path_mm` (a shorter slice) are taken alone.

@@ -132,7 +132,7 @@ pub struct Args {
     whitening: Option<f32>,
 
     /// Smooth the database along the training pass: each training frame's descriptor becomes
-    /// the mean of those within ±MM of camera path (default 1.6; 0: none). Test frames are
+    /// the mean of those within ±MM of camera path (default 2.2; 0: none). Test frames are
     /// still looked up one by one. On the `paper` preset it adds 1–1.5 points per frame.
     #[arg(long, value_name = "MM")]
     database_smoothing: Option<f64>,
