@@ -23,9 +23,9 @@ use crate::cmd::demo::{parse, stage};
 ///   [train]
 ///   zones = "50"                       # a number, or "expert" / "expert:N"
 ///   schedule = "fast"                  # fast | paper
-///   epochs = 0                         # 0 = the schedule's
+///   # epochs = 150                     # default: the schedule's; 0 with pretrained: index only
 ///   seed = 0
-///   pretrained = "builtin"             # optional start weights: a file, builtin, builtin-track
+///   pretrained = "builtin"             # optional start weights: a file, builtin, builtin-track, builtin-joint
 ///   pairs = "zone"                     # zone (the paper's) | track (`endoloc train --pairs`)
 ///   [map]
 ///   images_per_zone = 8
@@ -80,7 +80,9 @@ impl Default for SimulateStage {
 struct TrainStage {
     zones: String,
     schedule: String,
-    epochs: usize,
+    /// `--epochs`: absent for the schedule's; 0 (with `pretrained`) indexes the pass with the
+    /// start weights and trains nothing.
+    epochs: Option<usize>,
     seed: u64,
     /// Start from these weights (`--pretrained`; a path like `out` and `data`).
     pretrained: Option<PathBuf>,
@@ -110,7 +112,7 @@ impl Default for TrainStage {
         TrainStage {
             zones: "50".into(),
             schedule: "fast".into(),
-            epochs: 0,
+            epochs: None,
             seed: 0,
             pretrained: None,
             pairs: PairsChoice::Zone,
@@ -221,8 +223,8 @@ pub fn run(args: Args) -> Result<()> {
         "--pairs",
         exp.train.pairs.flag(),
     ]);
-    if exp.train.epochs > 0 {
-        train.extend(s(&["--epochs", &exp.train.epochs.to_string()]));
+    if let Some(epochs) = exp.train.epochs {
+        train.extend(s(&["--epochs", &epochs.to_string()]));
     }
     if let Some(w) = &exp.train.pretrained {
         train.extend(s(&["--pretrained", &w.display().to_string()]));
