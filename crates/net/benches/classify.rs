@@ -1,6 +1,6 @@
 //! Per-frame cost of zone classification on the CPU: preprocessing a 640×480 frame, the
 //! compact backbone's descriptor, the look-up in a 2610-frame database, and all of it
-//! together (for one model and for an ensemble of two); the temporal filters' update per
+//! together (for one model, whitened or not, and for an ensemble of two); the temporal filters' update per
 //! frame; plus one training step of the default schedule (64 pairs over 66 images).
 //!
 //! Weights are random (timing does not depend on them). Run with
@@ -35,6 +35,12 @@ fn frame(seed: u64) -> image::GrayImage {
 }
 
 fn classifier() -> ZoneClassifier {
+    classifier_with(false)
+}
+
+/// The benchmark classifier; `whiten`: with a whitening learnt from its database (the
+/// default of `endoloc train`), applied to every descriptor.
+fn classifier_with(whiten: bool) -> ZoneClassifier {
     let device = endoloc_net::device::cpu();
     device.seed(1);
     let backbone = BackboneConfig::compact();
@@ -56,6 +62,12 @@ fn classifier() -> ZoneClassifier {
         let n = row.iter().map(|v| v * v).sum::<f32>().sqrt();
         row.iter_mut().for_each(|v| *v /= n);
     }
+    let whitening = whiten.then(|| {
+        endoloc_net::whiten::Whitening::fit(&d, dim, endoloc_net::train::DEFAULT_WHITENING).unwrap()
+    });
+    if let Some(w) = &whitening {
+        d = w.apply_rows(&d);
+    }
     let db = DescriptorDatabase::new(dim, ZONES, d, zones.zone_of_frame.clone()).unwrap();
     let config = ModelConfig {
         format_version: FORMAT_VERSION,
@@ -68,13 +80,14 @@ fn classifier() -> ZoneClassifier {
         zones: zcfg,
         temporal: TemporalConfig::default(),
         track: Default::default(),
-        whitening: None,
+        whitening: whitening.as_ref().map(|w| w.power),
         train: TrainConfig::default(),
     };
     ZoneClassifier::from_parts(
         std::path::PathBuf::from("bench"),
         config,
         net,
+        whitening,
         device,
         zones,
         db,
@@ -101,6 +114,11 @@ fn bench_inference(c: &mut Criterion) {
     });
     g.bench_function("describe_and_lookup", |b| {
         b.iter(|| clf.classify(black_box(&img)).unwrap())
+    });
+    // With the default whitening: one 128 × 128 product more per frame.
+    let whitened = classifier_with(true);
+    g.bench_function("describe_and_lookup_whitened", |b| {
+        b.iter(|| whitened.classify(black_box(&img)).unwrap())
     });
     // An ensemble of two models (`ZoneClassifier::join`): two networks, a 256-d look-up.
     let pair = classifier().join(vec![classifier()]).unwrap();

@@ -159,21 +159,28 @@ impl ZoneClassifier {
     }
 
     /// A classifier from its parts (a model not read from disk: tests, benchmarks, a network
-    /// trained in memory). `net` should be in validation mode (`net.valid()`).
+    /// trained in memory). `net` should be in validation mode (`net.valid()`); `whitening`,
+    /// when given, is applied to its descriptors (the database rows are taken as they are:
+    /// whitened already).
     ///
     /// # Errors
     /// [`NetError::Incompatible`] when the parts disagree (descriptor length, frame or zone
-    /// counts).
+    /// counts, a whitening of another length).
+    #[allow(clippy::too_many_arguments)]
     pub fn from_parts(
         dir: PathBuf,
         config: ModelConfig,
         net: EmbeddingNet,
+        whitening: Option<Whitening>,
         device: Device,
         zones: ZoneTable,
         database: DescriptorDatabase,
         train_poses: Vec<Pose>,
     ) -> Result<Self, NetError> {
-        if database.dim != config.backbone.descriptor_dim()
+        if whitening
+            .as_ref()
+            .is_some_and(|w| w.dim != config.backbone.descriptor_dim())
+            || database.dim != config.backbone.descriptor_dim()
             || database.len() != zones.frame_count()
             || train_poses.len() != zones.frame_count()
             || database.zones != zones.len()
@@ -181,19 +188,22 @@ impl ZoneClassifier {
             return Err(NetError::Incompatible {
                 model: dir,
                 message: format!(
-                    "parts disagree: database {} rows of {} ({} zones), {} zones over {} frames, {} poses, descriptor length {}",
+                    "parts disagree: database {} rows of {} ({} zones), {} zones over {} frames, {} poses, descriptor length {}, whitening length {}",
                     database.len(),
                     database.dim,
                     database.zones,
                     zones.len(),
                     zones.frame_count(),
                     train_poses.len(),
-                    config.backbone.descriptor_dim()
+                    config.backbone.descriptor_dim(),
+                    whitening
+                        .as_ref()
+                        .map_or("none".to_string(), |w| w.dim.to_string())
                 ),
             });
         }
         Ok(ZoneClassifier {
-            nets: vec![Branch::new(dir.clone(), &config, net, None)],
+            nets: vec![Branch::new(dir.clone(), &config, net, whitening)],
             dir,
             config,
             device,

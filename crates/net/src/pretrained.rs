@@ -363,6 +363,9 @@ mod tests {
         let err = load_pretrained(&mut net, Path::new("builtin-zone"))
             .unwrap_err()
             .to_string();
-        assert!(err.contains("builtin, builtin-track, builtin-joint"), "{err}");
+        assert!(
+            err.contains("builtin, builtin-track, builtin-joint"),
+            "{err}"
+        );
     }
 }

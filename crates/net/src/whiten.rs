@@ -10,8 +10,8 @@
 //! directions of pure noise; a power near ¼ keeps the gain without that.
 //!
 //! Measured on the simulator's `paper` preset (50 zones, exact zone per frame, test pass /
-//! a second pass): `builtin-track` weights indexed without training 82.3 / 80.2 % raw, 86.0
-//! / 84.6 % whitened at `p = ¼`; the power was chosen on the second pass.
+//! a second pass): `builtin-track` weights indexed without training 82.3 / 80.2 % raw, 85.6
+//! / 84.7 % whitened at `p = ¼`; the power was chosen on the second pass.
 //!
 //! A whitened descriptor is `y = normalise(Pᵀ (x − μ))`, `P = U diag(max(λ, ε)^−p)` from the
 //! eigen-decomposition `U diag(λ) Uᵀ` of the rows' covariance; it stays unit length, so
