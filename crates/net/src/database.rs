@@ -12,6 +12,7 @@
 //! `n`, `u32` descriptor length `dim`, `n × u32` zone indices, `n × dim × f32` descriptors.
 
 use crate::NetError;
+use crate::binfile;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -231,16 +232,13 @@ impl DescriptorDatabase {
     /// # Errors
     /// [`NetError::Io`] when the file cannot be written.
     pub fn save(&self, path: &Path) -> Result<(), NetError> {
-        let mut out = Vec::with_capacity(16 + self.len() * (4 + 4 * self.dim));
-        out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&(self.len() as u32).to_le_bytes());
-        out.extend_from_slice(&(self.dim as u32).to_le_bytes());
-        for &z in &self.zone_of_row {
-            out.extend_from_slice(&(z as u32).to_le_bytes());
-        }
-        for &v in &self.descriptors {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
+        let header = [
+            (self.len() as u32).to_le_bytes(),
+            (self.dim as u32).to_le_bytes(),
+        ];
+        let mut out = binfile::start(MAGIC, header, self.len() * (4 + 4 * self.dim));
+        binfile::put_u32(&mut out, self.zone_of_row.iter().map(|&z| z as u32));
+        binfile::put_f32(&mut out, &self.descriptors);
         std::fs::write(path, out).map_err(|e| NetError::io(path, e))
     }
 
@@ -250,33 +248,28 @@ impl DescriptorDatabase {
     /// [`NetError::Io`] if unreadable; [`NetError::Parse`] for a bad header, a truncated
     /// file or a zone index `≥ zones`.
     pub fn load(path: &Path, zones: usize) -> Result<Self, NetError> {
-        let bytes = std::fs::read(path).map_err(|e| NetError::io(path, e))?;
+        let bytes = binfile::read(path, MAGIC, "descriptor database")?;
         let bad = |m: String| NetError::parse(path, 0, m);
-        if bytes.len() < 16 || &bytes[..8] != MAGIC {
-            return Err(bad("not an endoloc descriptor database (bad header)".into()));
-        }
-        let u32_at = |o: usize| {
-            u32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]) as usize
-        };
-        let (n, dim) = (u32_at(8), u32_at(12));
-        let expected = 16 + n * 4 + n * dim * 4;
-        if bytes.len() != expected {
+        let n = u32::from_le_bytes(binfile::word(&bytes, 8)) as usize;
+        let dim = u32::from_le_bytes(binfile::word(&bytes, 12)) as usize;
+        // In u128: a damaged header's counts must not overflow.
+        let expected = binfile::HEADER as u128 + 4 * n as u128 * (1 + dim as u128);
+        if bytes.len() as u128 != expected {
             return Err(bad(format!(
                 "{} bytes; expected {expected} for {n} descriptors of length {dim}",
                 bytes.len()
             )));
         }
-        let zone_of_row: Vec<usize> = (0..n).map(|i| u32_at(16 + 4 * i)).collect();
+        let off = binfile::HEADER + 4 * n;
+        let zone_of_row: Vec<usize> = binfile::u32s(&bytes[binfile::HEADER..off])
+            .map(|z| z as usize)
+            .collect();
         if let Some((i, z)) = zone_of_row.iter().enumerate().find(|(_, z)| **z >= zones) {
             return Err(bad(format!(
                 "row {i} has zone {z}; the model has {zones} zones"
             )));
         }
-        let off = 16 + 4 * n;
-        let descriptors: Vec<f32> = bytes[off..]
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
+        let descriptors = binfile::f32s(&bytes[off..]);
         DescriptorDatabase::new(dim, zones, descriptors, zone_of_row)
     }
 }
@@ -468,5 +461,14 @@ mod tests {
             err.contains("database.bin") && err.contains("expected"),
             "{err}"
         );
+        // Counts damaged to their largest values: an error, not an overflow.
+        let mut damaged = bytes.clone();
+        damaged[8..16].fill(0xff);
+        std::fs::write(&p, &damaged).unwrap();
+        let err = DescriptorDatabase::load(&p, 2).unwrap_err().to_string();
+        assert!(err.contains("4294967295 descriptors"), "{err}");
+        std::fs::write(&p, b"EDLCDB0").unwrap();
+        let err = DescriptorDatabase::load(&p, 2).unwrap_err().to_string();
+        assert!(err.contains("bad header"), "{err}");
     }
 }

@@ -11,13 +11,15 @@
 //! optional crate feature (`cuda`, `wgpu`) chosen at run time ([`device`]).
 //!
 //! A trained model is one folder ([`model`]): `model.toml` (its config), `weights.safetensors`,
-//! `zones.csv`, `database.bin` (descriptors of the training frames) and `train_poses.txt`.
+//! `zones.csv`, `database.bin` (descriptors of the training frames), `whitening.bin` (when the
+//! descriptors are whitened, [`whiten`]) and `train_poses.txt`.
 //!
 //! Conventions (`DESIGN.md`): zone indices are 0-based along the training trajectory; poses
 //! are `T_wc` in mm.
 
 pub mod augment;
 pub mod backbone;
+mod binfile;
 pub mod classifier;
 pub mod database;
 pub mod device;

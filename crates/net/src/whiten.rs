@@ -18,6 +18,7 @@
 //! every look-up, filter and ensemble works on it unchanged.
 
 use crate::NetError;
+use crate::binfile;
 use nalgebra::{DMatrix, SymmetricEigen};
 use std::path::Path;
 
@@ -145,13 +146,9 @@ impl Whitening {
     /// # Errors
     /// [`NetError::Io`].
     pub fn save(&self, path: &Path) -> Result<(), NetError> {
-        let mut out = Vec::with_capacity(16 + 4 * (self.dim + self.dim * self.dim));
-        out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&(self.dim as u32).to_le_bytes());
-        out.extend_from_slice(&self.power.to_le_bytes());
-        for v in self.mean.iter().chain(&self.projection) {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
+        let header = [(self.dim as u32).to_le_bytes(), self.power.to_le_bytes()];
+        let mut out = binfile::start(MAGIC, header, 4 * (self.dim + self.dim * self.dim));
+        binfile::put_f32(&mut out, self.mean.iter().chain(&self.projection));
         std::fs::write(path, out).map_err(|e| NetError::io(path, e))
     }
 
@@ -161,30 +158,23 @@ impl Whitening {
     /// [`NetError::Io`] if unreadable; [`NetError::Parse`] for a bad header, another length,
     /// a truncated file or a value that is not finite.
     pub fn load(path: &Path, dim: usize) -> Result<Self, NetError> {
-        let bytes = std::fs::read(path).map_err(|e| NetError::io(path, e))?;
+        let bytes = binfile::read(path, MAGIC, "whitening")?;
         let bad = |m: String| NetError::parse(path, 0, m);
-        if bytes.len() < 16 || &bytes[..8] != MAGIC {
-            return Err(bad("not an endoloc whitening (bad header)".into()));
-        }
-        let word = |o: usize| [bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]];
-        let stored = u32::from_le_bytes(word(8)) as usize;
-        let power = f32::from_le_bytes(word(12));
+        let stored = u32::from_le_bytes(binfile::word(&bytes, 8)) as usize;
+        let power = f32::from_le_bytes(binfile::word(&bytes, 12));
         if stored != dim {
             return Err(bad(format!(
                 "whitens descriptors of length {stored}; the backbone makes {dim}"
             )));
         }
-        let expected = 16 + 4 * (dim + dim * dim);
+        let expected = binfile::HEADER + 4 * (dim + dim * dim);
         if bytes.len() != expected {
             return Err(bad(format!(
                 "{} bytes; expected {expected} for descriptors of length {dim}",
                 bytes.len()
             )));
         }
-        let values: Vec<f32> = bytes[16..]
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
+        let values = binfile::f32s(&bytes[binfile::HEADER..]);
         if !(power > 0.0 && power <= 0.5) || values.iter().any(|v| !v.is_finite()) {
             return Err(bad(format!(
                 "power {power} or a value is out of range (a damaged file?)"
