@@ -107,6 +107,37 @@ impl PairsChoice {
     }
 }
 
+impl TrainStage {
+    /// The `endoloc train` arguments of this stage (without `--force`).
+    fn argv(&self, data: &str, model: &str) -> Vec<String> {
+        let mut argv: Vec<String> = [
+            "train",
+            "--data",
+            data,
+            "--zones",
+            &self.zones,
+            "--out",
+            model,
+            "--schedule",
+            &self.schedule,
+            "--seed",
+            &self.seed.to_string(),
+            "--pairs",
+            self.pairs.flag(),
+        ]
+        .iter()
+        .map(|x| x.to_string())
+        .collect();
+        if let Some(epochs) = self.epochs {
+            argv.extend(["--epochs".to_string(), epochs.to_string()]);
+        }
+        if let Some(w) = &self.pretrained {
+            argv.extend(["--pretrained".to_string(), w.display().to_string()]);
+        }
+        argv
+    }
+}
+
 impl Default for TrainStage {
     fn default() -> Self {
         TrainStage {
@@ -208,27 +239,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let data_s = data.display().to_string();
 
-    let mut train = s(&[
-        "train",
-        "--data",
-        &data_s,
-        "--zones",
-        &exp.train.zones,
-        "--out",
-        &p("model"),
-        "--schedule",
-        &exp.train.schedule,
-        "--seed",
-        &exp.train.seed.to_string(),
-        "--pairs",
-        exp.train.pairs.flag(),
-    ]);
-    if let Some(epochs) = exp.train.epochs {
-        train.extend(s(&["--epochs", &epochs.to_string()]));
-    }
-    if let Some(w) = &exp.train.pretrained {
-        train.extend(s(&["--pretrained", &w.display().to_string()]));
-    }
+    let mut train = exp.train.argv(&data_s, &p("model"));
     train.extend(s(force));
     stage("train", &train);
     timed("train", &mut || cmd::train::run(parse(&train)?))?;
@@ -316,5 +327,27 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("frames") && e.contains("track"), "{e}");
+    }
+
+    #[test]
+    fn train_epochs_absent_take_the_schedule_and_zero_indexes_only() {
+        let parse = |t: &str| toml::from_str::<Experiment>(t).unwrap();
+        let argv = parse("out = \"o\"\ndata = \"d\"\n")
+            .train
+            .argv("d", "o/model");
+        assert!(!argv.contains(&"--epochs".to_string()), "{argv:?}");
+        assert!(!argv.contains(&"--pretrained".to_string()), "{argv:?}");
+        let argv = parse(
+            "out = \"o\"\ndata = \"d\"\n[train]\nepochs = 0\npretrained = \"builtin-joint\"\n",
+        )
+        .train
+        .argv("d", "o/model");
+        let text = argv.join(" ");
+        assert!(
+            text.contains("--epochs 0") && text.contains("--pretrained builtin-joint"),
+            "{text}"
+        );
+        // The arguments parse as `endoloc train`'s own.
+        crate::cmd::demo::parse::<crate::cmd::train::Args>(&argv).unwrap();
     }
 }
