@@ -103,6 +103,7 @@ fn localizer(f: &Fixture, cfg: LocalizerConfig) -> Localizer {
         "test".into(),
         config,
         net,
+        None,
         device,
         f.zones.clone(),
         db,
