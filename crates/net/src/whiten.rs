@@ -56,7 +56,7 @@ impl Whitening {
                 "whitening power {power} must be in (0, 0.5]"
             )));
         }
-        if dim == 0 || rows.len() % dim != 0 {
+        if dim == 0 || !rows.len().is_multiple_of(dim) {
             return Err(NetError::Config(format!(
                 "whitening needs whole rows of {dim} values; got {}",
                 rows.len()
