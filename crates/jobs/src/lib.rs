@@ -1,0 +1,25 @@
+//! endoloc's stages as typed jobs: the library behind the `endoloc` command line.
+//!
+//! Each stage is a plain, serialisable struct (`SimulateJob`, `TrainJob`, `MapJob`,
+//! `LocalizeJob`, `EvalJob`, …) whose `Default` is the method the documentation measures. Its
+//! `run` takes a [`Progress`] sink and returns a typed report; nothing here prints or parses
+//! command-line arguments. The command line turns its arguments into a job, runs it and prints
+//! the report; `endoloc run` reads the same jobs from a TOML file; the demo and the experiments
+//! compose them.
+//!
+//! ```no_run
+//! use endoloc_jobs::{Silent, MapJob};
+//! let job = MapJob { model: "models/small".into(), data: "data/small".into(), ..MapJob::default() };
+//! let report = job.run(&Silent)?;
+//! println!("{report}");
+//! # Ok::<(), endoloc_jobs::JobError>(())
+//! ```
+
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod output;
+pub mod progress;
+
+pub use error::{Context, JobError, Result};
+pub use progress::{Progress, Silent, with_progress};
