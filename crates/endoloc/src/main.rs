@@ -1,7 +1,8 @@
 //! `endoloc`: image-based colonoscope localization from the command line.
 //!
-//! The binary is a thin shell: each subcommand lives in `cmd/<name>.rs`, turns its raw
-//! arguments into a validated library config, runs the library, and reports.
+//! The binary is a thin shell over `endoloc-jobs`: each subcommand lives in `cmd/<name>.rs`,
+//! turns its arguments into a job, runs it with a terminal progress sink, and prints the
+//! job's report.
 
 mod cmd;
 mod ui;
@@ -18,6 +19,10 @@ struct Cli {
     /// More log output (-v info, -vv debug); errors and warnings are always shown.
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
     verbose: u8,
+
+    /// No progress bars or stage lines on stderr (warnings and errors are still shown).
+    #[arg(short, long, global = true)]
+    quiet: bool,
 
     #[command(subcommand)]
     command: Command,
@@ -43,20 +48,22 @@ enum Command {
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     ui::init_logging(cli.verbose);
+    let ui = ui::Terminal::new(cli.quiet);
+    let ui = &ui;
     let result = match cli.command {
-        Command::Simulate(args) => cmd::simulate::run(args),
-        Command::Features(args) => cmd::features::run(args),
-        Command::Dataset(args) => cmd::dataset::run(args),
-        Command::Eval(args) => cmd::eval::run(args),
-        Command::Import(args) => cmd::import::run(args),
-        Command::Pretrain(args) => cmd::pretrain::run(args),
-        Command::Train(args) => cmd::train::run(args),
-        Command::Classify(args) => cmd::classify::run(args),
-        Command::Map(args) => cmd::localize::run_map(args),
-        Command::Localize(args) => cmd::localize::run_localize(args),
-        Command::Demo(args) => cmd::demo::run(args),
-        Command::Run(args) => cmd::run::run(args),
-        Command::Experiment(args) => cmd::experiment::run(args),
+        Command::Simulate(args) => cmd::simulate::run(args, ui),
+        Command::Features(args) => cmd::features::run(args, ui),
+        Command::Dataset(args) => cmd::dataset::run(args, ui),
+        Command::Eval(args) => cmd::eval::run(args, ui),
+        Command::Import(args) => cmd::import::run(args, ui),
+        Command::Pretrain(args) => cmd::pretrain::run(args, ui),
+        Command::Train(args) => cmd::train::run(args, ui),
+        Command::Classify(args) => cmd::classify::run(args, ui),
+        Command::Map(args) => cmd::localize::run_map(args, ui),
+        Command::Localize(args) => cmd::localize::run_localize(args, ui),
+        Command::Demo(args) => cmd::demo::run(args, ui),
+        Command::Run(args) => cmd::run::run(args, ui),
+        Command::Experiment(args) => cmd::experiment::run(args, ui),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -22,4 +22,13 @@ pub mod output;
 pub mod progress;
 
 pub use error::{Context, JobError, Result};
-pub use progress::{Progress, Silent, with_progress};
+pub use progress::{Bar, Progress, Silent};
+pub mod baselines;
+pub mod localize;
+pub mod map;
+pub mod predict;
+
+pub use localize::{LocalizeJob, LocalizeMethod, LocalizeReport};
+pub use map::{MapJob, MapReport};
+pub mod train;
+pub use train::{TrainJob, TrainMethod, TrainReport};

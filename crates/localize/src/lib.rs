@@ -15,7 +15,7 @@ pub mod map;
 pub mod map_io;
 pub mod pipeline;
 
-pub use map::{Map, MapConfig, MapPoint, MapSummary, ZoneMap, build_map};
+pub use map::{DEFAULT_MAP_THRESHOLD, Map, MapConfig, MapPoint, MapSummary, ZoneMap, build_map};
 pub use pipeline::{FrameResult, LiveState, Localizer, LocalizerConfig, RetryFeatures, StageTimes};
 
 /// Errors of the localizer.

@@ -30,8 +30,10 @@ use crate::map::{Map, MapPoint};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LocalizerConfig {
-    /// SURF on the test frame (the paper's settings by default).
-    pub surf: SurfConfig,
+    /// SURF on the test frames. `None` (default): the map's own SURF settings at twice the
+    /// map's threshold (the stronger features: cheaper to detect and match). Any descriptor
+    /// setting (`extended`, `upright`) must match the map's for the matching to mean anything.
+    pub surf: Option<SurfConfig>,
     /// Matching test features to map points.
     pub matcher: MatcherConfig,
     /// Map points also come from this many zones on each side of the classified one.
@@ -59,16 +61,17 @@ pub struct LocalizerConfig {
     /// little in a second or two; a zone median can be a zone away). The status stays
     /// `init_only`. 0 = always the zone median, as in the paper.
     pub hold_frames: usize,
-    /// A frame that registers nowhere with features at `surf.threshold` is described again
+    /// A frame that registers nowhere with features at the test threshold is described again
     /// at this lower SURF threshold and tried once more (beyond the paper; its time counts in
-    /// the frame's SURF time). 0, or a value not below `surf.threshold`, = off.
-    pub retry_threshold: f32,
+    /// the frame's SURF time). `None` (default): the map's threshold. `Some(0.0)`, or a value
+    /// not below the test threshold, = off.
+    pub retry_threshold: Option<f32>,
 }
 
 impl Default for LocalizerConfig {
     fn default() -> Self {
         LocalizerConfig {
-            surf: SurfConfig::default(),
+            surf: None,
             matcher: MatcherConfig::default(),
             neighbour_zones: 1,
             localize: LocalizeConfig::new(),
@@ -77,8 +80,24 @@ impl Default for LocalizerConfig {
             track_frames: 5,
             recover_frames: 300,
             hold_frames: 60,
-            retry_threshold: 0.0,
+            retry_threshold: None,
         }
+    }
+}
+
+impl LocalizerConfig {
+    /// The SURF settings of the test frames for a map built with `map_surf`: [`Self::surf`], or
+    /// the map's at twice its threshold.
+    pub fn test_surf(&self, map_surf: &SurfConfig) -> SurfConfig {
+        self.surf
+            .clone()
+            .unwrap_or_else(|| map_surf.clone().with_threshold(2.0 * map_surf.threshold))
+    }
+
+    /// The retry threshold for a map built with `map_surf` (0 = off): [`Self::retry_threshold`],
+    /// or the map's threshold.
+    pub fn retry_threshold_for(&self, map_surf: &SurfConfig) -> f32 {
+        self.retry_threshold.unwrap_or(map_surf.threshold)
     }
 }
 
@@ -181,14 +200,11 @@ impl Localizer {
             )));
         }
         classifier.check_compatible(&map.camera)?;
-        let surf = cfg.surf.clone().init()?;
-        let retry_surf = if cfg.retry_threshold > 0.0 && cfg.retry_threshold < cfg.surf.threshold {
-            Some(
-                cfg.surf
-                    .clone()
-                    .with_threshold(cfg.retry_threshold)
-                    .init()?,
-            )
+        let test_surf = cfg.test_surf(&map.config.surf);
+        let retry = cfg.retry_threshold_for(&map.config.surf);
+        let surf = test_surf.clone().init()?;
+        let retry_surf = if retry > 0.0 && retry < test_surf.threshold {
+            Some(test_surf.with_threshold(retry).init()?)
         } else {
             None
         };

@@ -111,7 +111,9 @@ fn localizer(f: &Fixture, cfg: LocalizerConfig) -> Localizer {
     )
     .unwrap();
     let mut cfg = cfg;
-    cfg.surf.threshold = 50.0;
+    if cfg.surf.is_none() {
+        cfg.surf = Some(f.map.config.surf.clone().with_threshold(50.0));
+    }
     Localizer::new(clf, f.map.clone(), cfg).unwrap()
 }
 
@@ -327,7 +329,7 @@ fn a_frame_without_enough_features_registers_with_the_retry_features() {
     let f = fixture();
     let test = f.ds.sequence("test").unwrap();
     let cfg = LocalizerConfig {
-        retry_threshold: 25.0,
+        retry_threshold: Some(25.0),
         ..LocalizerConfig::default()
     };
     let loc = localizer(f, cfg);

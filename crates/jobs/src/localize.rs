@@ -1,0 +1,518 @@
+//! `LocalizeJob`: every frame of a sequence localized, by endoloc or a baseline.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use endoloc_data::{Dataset, Sequence, StampedPose};
+use endoloc_eval::{FrameRecord, write_frames_csv};
+use endoloc_geometry::Status;
+use endoloc_localize::map_io::load_map;
+use endoloc_localize::{FrameResult, Localizer, LocalizerConfig};
+use endoloc_net::ZoneClassifier;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::baselines::{self, Estimates};
+use crate::bail;
+use crate::error::{Context, JobError, Result};
+use crate::predict::predict_zones;
+use crate::progress::{Progress, bar};
+
+/// A localization method: endoloc's, or a baseline of the paper's Table I.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LocalizeMethod {
+    /// The paper's two-step method (zone, then SURF map matching and Gauss-Newton).
+    #[default]
+    Endoloc,
+    /// Zone median pose (classification only).
+    Classify,
+    /// Pose of the nearest training image in descriptor space.
+    Retrieval,
+    /// PoseNet pose regression.
+    Posenet,
+    /// OffsetNet relative pose to the retrieved training image.
+    Offsetnet,
+    /// Monocular visual odometry, first pose and scale from the ground truth.
+    Vo,
+}
+
+impl LocalizeMethod {
+    /// Lower-case name, as on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            LocalizeMethod::Endoloc => "endoloc",
+            LocalizeMethod::Classify => "classify",
+            LocalizeMethod::Retrieval => "retrieval",
+            LocalizeMethod::Posenet => "posenet",
+            LocalizeMethod::Offsetnet => "offsetnet",
+            LocalizeMethod::Vo => "vo",
+        }
+    }
+}
+
+/// Localizes every frame of a sequence and writes `trajectory.txt` (TUM, `T_wc`, mm; one line
+/// per frame with a pose) and, for endoloc, `frames.csv` (one row per frame: zone, status,
+/// reason, inliers, reprojection RMS, time) into `out`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LocalizeJob {
+    /// Method.
+    pub method: LocalizeMethod,
+    /// Model folder (trained, with its map; for `posenet` the PoseNet folder).
+    pub model: Option<PathBuf>,
+    /// Zone models joined to `model` into an ensemble (same pass and zones).
+    pub also_model: Vec<PathBuf>,
+    /// OffsetNet model folder (`offsetnet`).
+    pub regressor: Option<PathBuf>,
+    /// Training sequence folder holding the reference images (`offsetnet`).
+    pub reference_seq: Option<PathBuf>,
+    /// Sequence folder to localize (inside a dataset folder).
+    pub seq: PathBuf,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Frames one at a time, in order, as a scope delivers them.
+    pub live: bool,
+    /// Live: frames a refined pose stays usable as the next frames' prior (0: off).
+    pub track_frames: usize,
+    /// Live: frames after a refined one during which the zones around it are tried (0: off).
+    pub recover_frames: usize,
+    /// Live: an `init_only` frame reports the last refined pose when at most this many frames
+    /// old (0: always the zone median).
+    pub hold_frames: usize,
+    /// Map points also come from this many zones on each side of the classified one.
+    pub neighbours: usize,
+    /// SURF threshold on the test frames (`None`: twice the map's).
+    pub threshold: Option<f32>,
+    /// Retry threshold for frames that register nowhere (`None`: the map's; 0: off).
+    pub retry_threshold: Option<f32>,
+    /// At most this many SURF keypoints per test frame, the strongest (0: all).
+    pub max_keypoints: usize,
+    /// Zones tried, best score first, until one registers (1 = the paper's rule).
+    pub candidate_zones: usize,
+    /// Validity: largest position uncertainty (1σ) of a refined pose, mm.
+    pub max_sigma_mm: f64,
+    /// Validity: largest RMS reprojection error of the inliers, pixels.
+    pub max_rms_px: f64,
+    /// Validity: largest jump from the prior, mm.
+    pub max_jump_mm: f64,
+    /// Replace existing results in `out`.
+    pub force: bool,
+}
+
+impl Default for LocalizeJob {
+    fn default() -> Self {
+        let cfg = LocalizerConfig::default();
+        let validity = &cfg.localize.validity;
+        LocalizeJob {
+            method: LocalizeMethod::Endoloc,
+            model: None,
+            also_model: Vec::new(),
+            regressor: None,
+            reference_seq: None,
+            seq: PathBuf::new(),
+            out: PathBuf::new(),
+            live: false,
+            track_frames: cfg.track_frames,
+            recover_frames: cfg.recover_frames,
+            hold_frames: cfg.hold_frames,
+            neighbours: cfg.neighbour_zones,
+            threshold: cfg.surf.as_ref().map(|s| s.threshold),
+            retry_threshold: cfg.retry_threshold,
+            max_keypoints: 0,
+            candidate_zones: cfg.candidate_zones,
+            max_sigma_mm: validity.max_position_sigma_mm,
+            max_rms_px: validity.max_rms_px,
+            max_jump_mm: validity.max_jump_mm,
+            force: false,
+        }
+    }
+}
+
+/// What `LocalizeJob` did.
+#[derive(Debug, Clone)]
+pub struct LocalizeReport {
+    /// Per-frame results (endoloc only; empty for baselines).
+    pub frames: Vec<FrameResult>,
+    /// Frames of the sequence.
+    pub frame_count: usize,
+    /// Frames with a pose.
+    pub with_pose: usize,
+    /// Mean time per frame, ms (baselines).
+    pub ms_per_frame: f64,
+    /// Wall time, seconds.
+    pub wall_s: f64,
+    /// A line from the method (e.g. where VO lost track).
+    pub note: Option<String>,
+    /// Output folder.
+    pub out: PathBuf,
+}
+
+impl LocalizeJob {
+    /// The localizer's configuration for a map built with `map_surf`-independent settings:
+    /// test-frame SURF stays `None` (derived from the map) unless a threshold or keypoint cap
+    /// is given.
+    pub fn localizer_config(&self, map_surf: &endoloc_features::SurfConfig) -> LocalizerConfig {
+        let base = LocalizerConfig::default();
+        let surf = if self.threshold.is_some() || self.max_keypoints > 0 {
+            let mut s = base.test_surf(map_surf);
+            if let Some(t) = self.threshold {
+                s.threshold = t;
+            }
+            s.max_keypoints = self.max_keypoints;
+            Some(s)
+        } else {
+            None
+        };
+        let mut cfg = LocalizerConfig {
+            surf,
+            retry_threshold: self.retry_threshold,
+            neighbour_zones: self.neighbours,
+            candidate_zones: self.candidate_zones,
+            track_frames: self.track_frames,
+            recover_frames: self.recover_frames,
+            hold_frames: self.hold_frames,
+            ..base
+        };
+        let validity = &mut cfg.localize.validity;
+        validity.max_position_sigma_mm = self.max_sigma_mm;
+        validity.max_rms_px = self.max_rms_px;
+        validity.max_jump_mm = self.max_jump_mm;
+        cfg
+    }
+
+    /// Localizes the sequence and writes the results.
+    ///
+    /// # Errors
+    /// Existing results without `force`, a missing model or map, a model for another camera,
+    /// an unreadable image, or a failed write.
+    pub fn run(&self, progress: &dyn Progress) -> Result<LocalizeReport> {
+        for f in ["trajectory.txt", "frames.csv"] {
+            crate::output::refuse_existing(
+                &self.out.join(f),
+                self.force,
+                &format!(" (the results in {})", self.out.display()),
+            )?;
+        }
+        if self.method != LocalizeMethod::Endoloc {
+            if !self.also_model.is_empty() {
+                bail!("also_model (--also-model) joins zone models for the endoloc method only");
+            }
+            return self.run_baseline(progress);
+        }
+        let model = self
+            .model
+            .as_deref()
+            .context("a model folder is required (--model)")?;
+        let classifier = load_classifier(model, &self.also_model, "cpu")?;
+        let map = load_map(model)?;
+        let seq = Sequence::open(&self.seq)?;
+        let camera = dataset_camera(&self.seq)?;
+        classifier.check_compatible(&camera).with_context(|| {
+            format!(
+                "model {} vs sequence {}",
+                model.display(),
+                self.seq.display()
+            )
+        })?;
+        let cfg = self.localizer_config(&map.config.surf);
+        let localizer = Localizer::new(classifier, map, cfg)?;
+        let n = seq.len();
+        let t = Instant::now();
+        let frames = {
+            let bar = bar(progress, n as u64, if self.live { "live" } else { "localize" });
+            if self.live {
+                let mut state = localizer.live_state();
+                let mut out = Vec::with_capacity(n);
+                for i in 0..n {
+                    let img = seq.load_gray(i)?;
+                    out.push(localizer.localize_live(&mut state, &img)?);
+                    bar.inc(1);
+                }
+                out
+            } else {
+                (0..n)
+                    .into_par_iter()
+                    .map(|i| {
+                        let img = seq.load_gray(i)?;
+                        let r = localizer.localize(&img)?;
+                        bar.inc(1);
+                        Ok(r)
+                    })
+                    .collect::<Result<Vec<FrameResult>>>()?
+            }
+        };
+        let wall_s = t.elapsed().as_secs_f64();
+        write_results(&self.out, &seq, &frames)?;
+        let with_pose = frames.iter().filter(|r| r.t_wc.is_some()).count();
+        Ok(LocalizeReport {
+            frame_count: n,
+            with_pose,
+            ms_per_frame: 1e3 * wall_s / n.max(1) as f64,
+            frames,
+            wall_s,
+            note: None,
+            out: self.out.clone(),
+        })
+    }
+
+    /// A baseline: its estimates and `trajectory.txt`.
+    fn run_baseline(&self, progress: &dyn Progress) -> Result<LocalizeReport> {
+        let seq = Sequence::open(&self.seq)?;
+        let camera = dataset_camera(&self.seq)?;
+        let name = self.method.name();
+        let model = || {
+            self.model
+                .as_deref()
+                .with_context(|| format!("method {name} needs a model folder (--model)"))
+        };
+        let classify = |dir: &Path| -> Result<(ZoneClassifier, Vec<endoloc_net::ZonePrediction>, f64)> {
+            let clf = ZoneClassifier::load(dir)
+                .with_context(|| format!("loading model {}", dir.display()))?;
+            clf.check_compatible(&camera)?;
+            let (preds, ms) = predict_zones(&clf, &seq, progress)?;
+            Ok((clf, preds, ms))
+        };
+        let t = Instant::now();
+        let est = match self.method {
+            LocalizeMethod::Classify | LocalizeMethod::Retrieval => {
+                let (clf, preds, ms) = classify(model()?)?;
+                let poses = preds
+                    .iter()
+                    .map(|p| {
+                        if self.method == LocalizeMethod::Classify {
+                            clf.zones().zones.get(p.zone).map(|z| z.median_pose)
+                        } else {
+                            clf.train_poses().get(p.nearest_frame).copied()
+                        }
+                    })
+                    .collect();
+                Estimates {
+                    poses,
+                    ms_per_frame: ms,
+                    note: None,
+                }
+            }
+            LocalizeMethod::Posenet => baselines::posenet(model()?, &seq, progress)?,
+            LocalizeMethod::Offsetnet => {
+                let reg = self.regressor.as_deref().context(
+                    "method offsetnet needs the OffsetNet model folder (--regressor)",
+                )?;
+                let refs = self.reference_seq.as_deref().context(
+                    "method offsetnet needs the training sequence folder (--reference-seq)",
+                )?;
+                let train = Sequence::open(refs)?;
+                let (_, preds, ms) = classify(model()?)?;
+                baselines::offsetnet(reg, &train, &seq, &preds, ms, progress)?
+            }
+            LocalizeMethod::Vo => baselines::vo(&camera, &seq, progress)?,
+            LocalizeMethod::Endoloc => unreachable!("endoloc is not a baseline"),
+        };
+        crate::output::create_dir(&self.out)?;
+        let trajectory = stamped(&seq, est.poses.iter().copied());
+        endoloc_data::write_tum(&self.out.join("trajectory.txt"), &trajectory)?;
+        Ok(LocalizeReport {
+            frames: Vec::new(),
+            frame_count: seq.len(),
+            with_pose: trajectory.len(),
+            ms_per_frame: est.ms_per_frame,
+            wall_s: t.elapsed().as_secs_f64(),
+            note: est.note,
+            out: self.out.clone(),
+        })
+    }
+}
+
+/// Loads a zone model on `device`, joined with `also` into an ensemble
+/// ([`ZoneClassifier::join`]) when that is not empty.
+///
+/// # Errors
+/// A model that cannot be loaded, or models that cannot be joined.
+pub fn load_classifier(model: &Path, also: &[PathBuf], device: &str) -> Result<ZoneClassifier> {
+    let load = |dir: &Path| {
+        ZoneClassifier::load_on(dir, device)
+            .with_context(|| format!("loading model {}", dir.display()))
+    };
+    let first = load(model)?;
+    if also.is_empty() {
+        return Ok(first);
+    }
+    let others = also.iter().map(|d| load(d)).collect::<Result<Vec<_>>>()?;
+    Ok(first.join(others)?)
+}
+
+/// The camera of the dataset a sequence folder belongs to (its parent's `dataset.toml`).
+///
+/// # Errors
+/// A sequence folder that is not inside a dataset.
+pub fn dataset_camera(seq_dir: &Path) -> Result<endoloc_geometry::Camera> {
+    let parent = seq_dir
+        .canonicalize()
+        .map_err(|e| JobError::io(seq_dir, e))?
+        .parent()
+        .map(Path::to_path_buf)
+        .context("the sequence folder has no parent dataset folder")?;
+    let ds = Dataset::open(&parent).with_context(|| {
+        format!(
+            "{} should be a sequence folder inside a dataset (with dataset.toml)",
+            seq_dir.display()
+        )
+    })?;
+    Ok(ds.meta.camera)
+}
+
+/// The frames of `seq` that have a pose, with their timestamps.
+fn stamped(
+    seq: &Sequence,
+    poses: impl Iterator<Item = Option<endoloc_geometry::Pose>>,
+) -> Vec<StampedPose> {
+    poses
+        .enumerate()
+        .filter_map(|(i, p)| {
+            p.map(|pose| StampedPose {
+                timestamp_s: seq.poses[i].timestamp_s,
+                pose,
+            })
+        })
+        .collect()
+}
+
+/// Writes `trajectory.txt` and `frames.csv` of a localization run into `out`.
+///
+/// # Errors
+/// A folder or file that cannot be written.
+pub fn write_results(out: &Path, seq: &Sequence, results: &[FrameResult]) -> Result<()> {
+    crate::output::create_dir(out)?;
+    let trajectory = stamped(seq, results.iter().map(|r| r.t_wc));
+    endoloc_data::write_tum(&out.join("trajectory.txt"), &trajectory)?;
+    write_frames_csv(&out.join("frames.csv"), &frame_records(results))?;
+    Ok(())
+}
+
+/// The `frames.csv` rows of a run, one per frame in order.
+pub fn frame_records(results: &[FrameResult]) -> Vec<FrameRecord> {
+    results
+        .iter()
+        .enumerate()
+        .map(|(i, r)| FrameRecord {
+            frame: i,
+            zone: Some(r.zone),
+            zone_score: Some(r.zone_score as f64),
+            status: r.status,
+            reason: r
+                .reason
+                .as_ref()
+                .map_or(String::new(), |x| x.code().to_string()),
+            inliers: Some(r.inliers),
+            reprojection_rms_px: r
+                .reprojection_rms_px
+                .is_finite()
+                .then_some(r.reprojection_rms_px),
+            time_ms: r.times.total_ms(),
+        })
+        .collect()
+}
+
+/// Counts per status and per-stage median latency of a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunSummary {
+    /// Frames.
+    pub frames: usize,
+    /// Fractions `refined`, `init_only`, `rejected`, in [0, 1].
+    pub refined: f64,
+    /// See [`RunSummary::refined`].
+    pub init_only: f64,
+    /// See [`RunSummary::refined`].
+    pub rejected: f64,
+    /// Median total time per frame, ms.
+    pub median_ms: f64,
+    /// Median zone, SURF, matching and refinement times, ms.
+    pub median_stage_ms: [f64; 4],
+}
+
+impl RunSummary {
+    /// The summary of `results`.
+    pub fn of(results: &[FrameResult]) -> Self {
+        let n = results.len().max(1) as f64;
+        let count = |s: Status| results.iter().filter(|r| r.status == s).count() as f64 / n;
+        let median = |f: &dyn Fn(&FrameResult) -> f64| {
+            let mut v: Vec<f64> = results.iter().map(f).collect();
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(0.0)
+        };
+        RunSummary {
+            frames: results.len(),
+            refined: count(Status::Refined),
+            init_only: count(Status::InitOnly),
+            rejected: count(Status::Rejected),
+            median_ms: median(&|r| r.times.total_ms()),
+            median_stage_ms: [
+                median(&|r| r.times.zone_ms),
+                median(&|r| r.times.surf_ms),
+                median(&|r| r.times.matching_ms),
+                median(&|r| r.times.refine_ms),
+            ],
+        }
+    }
+}
+
+impl fmt::Display for RunSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "frames    {} — refined {:.1} %, init_only {:.1} %, rejected {:.1} %",
+            self.frames,
+            100.0 * self.refined,
+            100.0 * self.init_only,
+            100.0 * self.rejected,
+        )?;
+        let [zone, surf, matching, refine] = self.median_stage_ms;
+        write!(
+            f,
+            "latency   median per frame {:.1} ms (zone {zone:.1}, SURF {surf:.1}, matching {matching:.1}, refine {refine:.2})",
+            self.median_ms
+        )
+    }
+}
+
+impl fmt::Display for LocalizeReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.frames.is_empty() {
+            if let Some(note) = &self.note {
+                writeln!(f, "{note}")?;
+            }
+            writeln!(
+                f,
+                "frames    {} — {} with a pose ({:.1} %), {:.1} ms per frame",
+                self.frame_count,
+                self.with_pose,
+                100.0 * self.with_pose as f64 / self.frame_count.max(1) as f64,
+                self.ms_per_frame
+            )?;
+            return write!(f, "wrote     {}/trajectory.txt", self.out.display());
+        }
+        writeln!(f, "{}; {:.1} s wall", RunSummary::of(&self.frames), self.wall_s)?;
+        write!(
+            f,
+            "wrote     {}/trajectory.txt, frames.csv",
+            self.out.display()
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_library_defaults() {
+        let map_surf = endoloc_localize::MapConfig::default().surf;
+        assert_eq!(
+            LocalizeJob::default().localizer_config(&map_surf),
+            LocalizerConfig::default()
+        );
+        let from_toml: LocalizeJob = toml::from_str("").unwrap();
+        assert_eq!(from_toml, LocalizeJob::default());
+    }
+}

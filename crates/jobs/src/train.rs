@@ -1,0 +1,652 @@
+//! `TrainJob`: zone the training sequence, train the Siamese network (or a regression
+//! baseline), write the model folder.
+
+use std::fmt;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use endoloc_data::Dataset;
+use endoloc_net::backbone::{BackboneConfig, Pooling};
+use endoloc_net::train::{Phase, Schedule, TrainConfig, TrainProgress, TrainTarget, train};
+use endoloc_net::{AugmentConfig, PairRule, UniformBy, ZoneConfig, ZoneTable};
+use serde::{Deserialize, Serialize};
+
+use crate::baselines::{Regressor, train_regressor};
+use crate::bail;
+use crate::error::{Context, Result};
+use crate::progress::Progress;
+
+/// What a `TrainJob` trains.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TrainMethod {
+    /// The Siamese zone classifier.
+    #[default]
+    Siamese,
+    /// PoseNet pose regression (baseline).
+    Posenet,
+    /// OffsetNet relative pose regression (baseline).
+    Offsetnet,
+}
+
+/// Trains the zone classifier (a Siamese network with the paper's contrastive loss) on the
+/// training sequence of a dataset and writes a model folder: `model.toml`,
+/// `weights.safetensors`, `zones.csv`, `database.bin`, `whitening.bin`, `train_poses.txt`,
+/// `history.csv` and `loss.png`. `Option` fields override the schedule, backbone or `config`
+/// file when set; `None` keeps theirs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrainJob {
+    /// The Siamese classifier, or a regression baseline on the same backbone.
+    pub method: TrainMethod,
+    /// Dataset folder (with `dataset.toml`).
+    pub data: PathBuf,
+    /// Training sequence inside the dataset.
+    pub seq: String,
+    /// Further passes through the same colon (sequences of this dataset) joined to the pairs.
+    pub also_seq: Vec<String>,
+    /// Zones: a number (uniform) or `expert` / `expert:N` (anatomical).
+    pub zones: String,
+    /// Uniform zones of equal `arc-length` or equal `frames`.
+    pub uniform_by: String,
+    /// Model folder to write.
+    pub out: PathBuf,
+    /// Replace an existing model folder (or discard an interrupted run).
+    pub force: bool,
+    /// Continue an interrupted run from its checkpoint (`MODEL.partial/checkpoint`).
+    pub resume: bool,
+    /// Backbone: `compact` or `googlenet`.
+    pub backbone: String,
+    /// Network input size `WxH` (`None`: the backbone's).
+    pub input: Option<String>,
+    /// Stride of the compact backbone's first convolution.
+    pub stem_stride: Option<usize>,
+    /// Global pooling of the compact backbone: `average` or `gem`.
+    pub pooling: Option<String>,
+    /// Tilt augmentation, degrees about the camera's x and y axes.
+    pub tilt_deg: Option<f32>,
+    /// Training pairs: `zone` or `track`.
+    pub pairs: Option<String>,
+    /// Track pairs: largest positive and smallest negative frame gap, `P,N`.
+    pub pair_frames: Option<String>,
+    /// Track pairs: fraction of negatives within 2·N frames.
+    pub near_fraction: Option<f32>,
+    /// Track pairs: fraction of each batch drawn as zone pairs instead.
+    pub zone_fraction: Option<f32>,
+    /// Power of the partial PCA whitening of the descriptors (0: none).
+    pub whitening: Option<f32>,
+    /// Database smoothing along the training pass, ± mm of camera path (0: none).
+    pub database_smoothing: Option<f64>,
+    /// Schedule preset: `fast` or `paper`.
+    pub schedule: String,
+    /// Training settings from a TOML file (fields of `TrainConfig`), overridden by the above.
+    pub config: Option<PathBuf>,
+    /// Epochs (0 with `pretrained`: only index the pass with the start weights).
+    pub epochs: Option<usize>,
+    /// Adam learning rate at the start.
+    pub lr: Option<f64>,
+    /// Pairs per step.
+    pub batch_pairs: Option<usize>,
+    /// Turn augmentation off.
+    pub no_augment: bool,
+    /// Seed of every random step.
+    pub seed: u64,
+    /// Compute device: `cpu`, `cuda`, `wgpu` (GPU builds only) or `auto`.
+    pub device: String,
+    /// Monitor validation accuracy on this sequence folder.
+    pub val_seq: Option<PathBuf>,
+    /// Start weights: a file, or `builtin`, `builtin-track`, `builtin-joint`.
+    pub pretrained: Option<PathBuf>,
+}
+
+impl Default for TrainJob {
+    fn default() -> Self {
+        let cfg = TrainConfig::default();
+        TrainJob {
+            method: TrainMethod::Siamese,
+            data: PathBuf::new(),
+            seq: "train".into(),
+            also_seq: Vec::new(),
+            zones: "50".into(),
+            uniform_by: "arc-length".into(),
+            out: PathBuf::new(),
+            force: false,
+            resume: false,
+            backbone: cfg.backbone.name().to_string(),
+            input: None,
+            stem_stride: None,
+            pooling: None,
+            tilt_deg: None,
+            pairs: None,
+            pair_frames: None,
+            near_fraction: None,
+            zone_fraction: None,
+            whitening: None,
+            database_smoothing: None,
+            schedule: "fast".into(),
+            config: None,
+            epochs: None,
+            lr: None,
+            batch_pairs: None,
+            no_augment: false,
+            seed: cfg.seed,
+            device: cfg.device.clone(),
+            val_seq: None,
+            pretrained: None,
+        }
+    }
+}
+
+/// What a `TrainJob` trained.
+#[derive(Debug)]
+pub enum TrainReport {
+    /// The Siamese classifier.
+    Siamese(Box<SiameseReport>),
+    /// A regression baseline.
+    Regressor {
+        /// Which one.
+        which: Regressor,
+        /// Training time, seconds.
+        seconds: f64,
+        /// Its model folder.
+        out: PathBuf,
+    },
+}
+
+/// A trained Siamese classifier.
+#[derive(Debug)]
+pub struct SiameseReport {
+    /// The library's training report.
+    pub report: endoloc_net::train::TrainReport,
+    /// Zones.
+    pub zones: usize,
+    /// Frames zoned.
+    pub zone_frames: usize,
+    /// Validation sequence (`None`: held-out training frames).
+    pub validation_sequence: Option<PathBuf>,
+    /// Further passes joined to the pairs.
+    pub extra_sequences: Vec<PathBuf>,
+    /// Wall time, seconds.
+    pub seconds: f64,
+}
+
+/// Parses a zone spec: a number (uniform zones, `by` = `arc-length` or `frames`), `expert`
+/// or `expert:N` (anatomical, N zones, default 50).
+///
+/// # Errors
+/// A spec or `by` that is none of these.
+pub fn zone_config(spec: &str, by: &str) -> Result<ZoneConfig> {
+    let s = spec.trim().to_ascii_lowercase();
+    if let Some(rest) = s.strip_prefix("expert") {
+        let count = match rest.strip_prefix(':') {
+            Some(n) => n
+                .parse()
+                .with_context(|| format!("--zones {spec}: expected expert:N with N a number"))?,
+            None if rest.is_empty() => 50,
+            None => bail!("--zones {spec}: expected a number, `expert` or `expert:N`"),
+        };
+        return Ok(ZoneConfig::Expert { count });
+    }
+    let count: usize = s
+        .parse()
+        .with_context(|| format!("--zones {spec}: expected a number, `expert` or `expert:N`"))?;
+    Ok(ZoneConfig::Uniform {
+        count,
+        by: by.parse::<UniformBy>()?,
+    })
+}
+
+/// `--pairs RULE`, `--pair-frames P,N`, `--near-fraction F` and `--zone-fraction F` applied
+/// to `rule`.
+///
+/// # Errors
+/// A rule name that is not `zone`/`track`, malformed frame gaps, tuning of zone pairs, or a
+/// rule that does not validate.
+pub fn pair_rule_from(
+    pairs: Option<&str>,
+    pair_frames: Option<&str>,
+    near: Option<f32>,
+    zone: Option<f32>,
+    rule: PairRule,
+) -> Result<PairRule> {
+    let mut rule = match pairs.map(|s| s.trim().to_ascii_lowercase()) {
+        None => rule,
+        Some(s) if s == "zone" => PairRule::Zone,
+        Some(s) if s == "track" => match rule {
+            PairRule::Track { .. } => rule,
+            PairRule::Zone => PairRule::track(),
+        },
+        Some(other) => bail!("--pairs {other}: expected `zone` or `track`"),
+    };
+    let tuning = pair_frames.is_some() || near.is_some() || zone.is_some();
+    match &mut rule {
+        PairRule::Track {
+            positive_frames,
+            negative_frames,
+            near_fraction,
+            zone_fraction,
+        } => {
+            if let Some(spec) = pair_frames {
+                let parsed = spec
+                    .split_once(',')
+                    .and_then(|(p, n)| Some((p.trim().parse().ok()?, n.trim().parse().ok()?)));
+                let Some((p, n)) = parsed else {
+                    bail!("--pair-frames {spec}: expected P,N (two frame counts, e.g. 3,10)");
+                };
+                (*positive_frames, *negative_frames) = (p, n);
+            }
+            if let Some(f) = near {
+                *near_fraction = f;
+            }
+            if let Some(f) = zone {
+                *zone_fraction = f;
+            }
+        }
+        PairRule::Zone if tuning => {
+            bail!(
+                "--pair-frames, --near-fraction and --zone-fraction apply to track pairs (--pairs track)"
+            )
+        }
+        PairRule::Zone => {}
+    }
+    rule.validate()?;
+    Ok(rule)
+}
+
+impl TrainJob {
+    /// The training configuration of this job: `config` (a TOML file) or the schedule and
+    /// backbone, with every override applied.
+    ///
+    /// # Errors
+    /// An unreadable config file or a bad value, named as its command-line option.
+    pub fn train_config(&self) -> Result<TrainConfig> {
+            let args = self;
+        let mut cfg = match &args.config {
+            Some(p) => {
+                let text =
+                    std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+                toml::from_str::<TrainConfig>(&text).with_context(|| format!("{}", p.display()))?
+            }
+            None => TrainConfig {
+                backbone: BackboneConfig::from_name(&args.backbone)?,
+                schedule: Schedule::from_name(&args.schedule)?,
+                ..TrainConfig::default()
+            },
+        };
+        if let Some(size) = &args.input {
+            cfg.backbone = cfg.backbone.clone().with_input(size.parse()?);
+        }
+        if let Some(n) = args.stem_stride {
+            match &mut cfg.backbone {
+                BackboneConfig::Compact { stem_stride, .. } => *stem_stride = n,
+                other => bail!(
+                    "--stem-stride applies to the compact backbone, not {}",
+                    other.name()
+                ),
+            }
+        }
+        if let Some(kind) = &args.pooling {
+            let kind: Pooling = match kind.trim().to_ascii_lowercase().as_str() {
+                "average" | "avg" => Pooling::Average,
+                "gem" => Pooling::Gem,
+                other => bail!("--pooling {other}: expected `average` or `gem`"),
+            };
+            match &mut cfg.backbone {
+                BackboneConfig::Compact { pooling, .. } => *pooling = kind,
+                other => bail!(
+                    "--pooling applies to the compact backbone, not {}",
+                    other.name()
+                ),
+            }
+        }
+        if let Some(e) = args.epochs {
+            cfg.schedule.epochs = e;
+        }
+        if let Some(lr) = args.lr {
+            cfg.schedule.learning_rate = lr;
+            cfg.schedule.final_learning_rate = cfg.schedule.final_learning_rate.min(lr);
+        }
+        if let Some(b) = args.batch_pairs {
+            cfg.schedule.batch_pairs = b;
+        }
+        if let Some(t) = args.tilt_deg {
+            if !(0.0..=45.0).contains(&t) {
+                bail!("--tilt-deg {t}: expected 0 to 45 degrees");
+            }
+            cfg.augment.tilt_deg = t;
+        }
+        if args.no_augment {
+            cfg.augment = AugmentConfig::off();
+        }
+        cfg.pairs = pair_rule_from(
+            args.pairs.as_deref(),
+            args.pair_frames.as_deref(),
+            args.near_fraction,
+            args.zone_fraction,
+            cfg.pairs,
+        )?;
+        if let Some(p) = args.whitening {
+            cfg.whitening = p;
+        }
+        if let Some(mm) = args.database_smoothing {
+            cfg.database_smoothing_mm = mm;
+        }
+        cfg.seed = args.seed;
+        cfg.device = args.device.clone();
+        if args.val_seq.is_some() {
+            cfg.validation.sequence = args.val_seq.clone();
+        }
+        if args.pretrained.is_some() {
+            cfg.pretrained = args.pretrained.clone();
+        }
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+        /// Trains and writes the model folder.
+        ///
+        /// # Errors
+        /// An existing model folder without `force`, an unreadable dataset, a bad setting, or a
+        /// failed training or write.
+        pub fn run(&self, progress: &dyn Progress) -> Result<TrainReport> {
+            let args = self;
+        if args.method != TrainMethod::Siamese {
+            let which = if args.method == TrainMethod::Posenet {
+                Regressor::PoseNet
+            } else {
+                Regressor::OffsetNet
+            };
+            let dataset = Dataset::open(&args.data)?;
+            let seq = dataset.sequence(&args.seq)?;
+            let seconds = train_regressor(
+                which,
+                &seq,
+                &dataset.meta.camera,
+                &args.out,
+                args.epochs,
+                args.seed,
+                args.force,
+                progress,
+            )?;
+            return Ok(TrainReport::Regressor {
+                which,
+                seconds,
+                out: args.out.clone(),
+            });
+        }
+        let cfg = self.train_config()?;
+        let zcfg = zone_config(&args.zones, &args.uniform_by)?;
+        let dataset = Dataset::open(&args.data)?;
+        let seq = dataset.sequence(&args.seq)?;
+        let zones = ZoneTable::from_sequence(&seq, &zcfg)?;
+        let mut cfg = cfg;
+        for name in &args.also_seq {
+            if *name == args.seq {
+                bail!("--also-seq {name}: that is the training sequence itself");
+            }
+            cfg.extra_sequences.push(dataset.sequence(name)?.dir);
+        }
+        progress.note(&format!(
+            "training {} on {} ({} frames, {} zones, {}), {} epochs of {} pairs, device {}",
+            cfg.backbone.name(),
+            seq.dir.display(),
+            seq.len(),
+            zones.len(),
+            match zcfg {
+                ZoneConfig::Uniform {
+                    by: UniformBy::ArcLength,
+                    ..
+                } => "uniform by arc length",
+                ZoneConfig::Uniform {
+                    by: UniformBy::Frames,
+                    ..
+                } => "uniform by frames",
+                ZoneConfig::Expert { .. } => "anatomical",
+            },
+            cfg.schedule.epochs,
+            cfg.schedule.pairs_per_epoch,
+            cfg.device
+        ));
+        let target = TrainTarget {
+            dir: args.out.clone(),
+            force: args.force,
+            resume: args.resume,
+        };
+        let t0 = Instant::now();
+        let mut bars = TrainBars::new(progress);
+        let report = train(
+            &cfg,
+            &seq,
+            &zones,
+            &dataset.meta.camera,
+            &dataset.meta.name,
+            &target,
+            &mut |p| bars.show(p),
+        )?;
+        drop(bars);
+        Ok(TrainReport::Siamese(Box::new(SiameseReport {
+            zones: zones.len(),
+            zone_frames: zones.frame_count(),
+            validation_sequence: cfg.validation.sequence.clone(),
+            extra_sequences: cfg.extra_sequences.clone(),
+            seconds: t0.elapsed().as_secs_f64(),
+            report,
+        })))
+        }
+}
+
+impl fmt::Display for TrainReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = match self {
+            TrainReport::Regressor { which, seconds, out } => {
+                return write!(
+                    f,
+                    "trained   {} in {seconds:.0} s → {}",
+                    which.name(),
+                    out.display()
+                );
+            }
+            TrainReport::Siamese(r) => r,
+        };
+        let report = &r.report;
+        if let Some(n) = report.resumed_after_epoch {
+            writeln!(f, "resumed      after epoch {n}")?;
+        }
+        writeln!(f, "model        {}", report.model_dir.display())?;
+        writeln!(f, "zones        {} ({} frames)", r.zones, r.zone_frames)?;
+        for (dir, n) in r.extra_sequences.iter().zip(&report.pass_frames) {
+            writeln!(
+                f,
+                "extra pass   {} ({n} frames joined the pairs)",
+                dir.display()
+            )?;
+        }
+        if let Some(last) = report.history.last() {
+            writeln!(f, "final loss   {:.4} (epoch {})", last.loss, last.epoch)?;
+        }
+        if let Some(v) = report
+            .history
+            .iter()
+            .rev()
+            .find(|h| h.val_accuracy.is_some())
+        {
+            writeln!(
+                f,
+                "validation   {:.1} % exact, {:.1} % within ±1 zone ({}, epoch {})",
+                100.0 * v.val_accuracy.unwrap_or(0.0),
+                100.0 * v.val_within1.unwrap_or(0.0),
+                r.validation_sequence
+                    .as_ref()
+                    .map_or("held-out training frames".to_string(), |p| p
+                        .display()
+                        .to_string()),
+                v.epoch
+            )?;
+        }
+        write!(
+            f,
+            "time         {:.1} s total: load {:.1} s, train {:.1} s ({} steps), describe {:.1} s",
+            r.seconds, report.load_s, report.train_s, report.steps, report.describe_s
+        )
+    }
+}
+
+/// Shows a training's phases on a progress sink: one loop per phase, the loss and validation
+/// accuracy as the training loop's message.
+pub struct TrainBars<'a> {
+    sink: &'a dyn Progress,
+    phase: Option<Phase>,
+}
+
+impl<'a> TrainBars<'a> {
+    /// Bars on `sink`.
+    pub fn new(sink: &'a dyn Progress) -> Self {
+        TrainBars { sink, phase: None }
+    }
+
+    /// Shows `p`, starting a new loop when the phase changes.
+    pub fn show(&mut self, p: &TrainProgress) {
+        if self.phase != Some(p.phase) {
+            if self.phase.is_some() {
+                self.sink.finish();
+            }
+            let label = match p.phase {
+                Phase::LoadingImages => "loading",
+                Phase::Training => "training",
+                Phase::Describing => "describing",
+                Phase::Saving => "saving",
+            };
+            self.sink.start(label, p.total as u64);
+            self.phase = Some(p.phase);
+        }
+        self.sink.position(p.done as u64, p.total as u64);
+        if p.phase == Phase::Training {
+            let loss = p.loss.map_or("-".into(), |l| format!("{l:.4}"));
+            let val = p
+                .val_accuracy
+                .map_or(String::new(), |a| format!(" val {:.1}%", 100.0 * a));
+            self.sink.message(&format!("ep {} loss {loss}{val}", p.epoch));
+        }
+    }
+}
+
+impl Drop for TrainBars<'_> {
+    fn drop(&mut self) {
+        if self.phase.is_some() {
+            self.sink.finish();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(job: TrainJob) -> Result<TrainConfig> {
+        TrainJob {
+            data: "d".into(),
+            out: "m".into(),
+            ..job
+        }
+        .train_config()
+    }
+
+    fn job() -> TrainJob {
+        TrainJob::default()
+    }
+
+    #[test]
+    fn defaults_agree() {
+        let from_toml: TrainJob = toml::from_str("").unwrap();
+        assert_eq!(from_toml, TrainJob::default());
+        let cfg = config(job()).unwrap();
+        assert_eq!(cfg.backbone, BackboneConfig::compact());
+        assert_eq!(cfg.pairs, PairRule::Zone);
+        assert_eq!(cfg.schedule, Schedule::from_name("fast").unwrap());
+    }
+
+    #[test]
+    fn pooling_and_tilt_reach_the_config_and_bad_values_are_named() {
+        let cfg = config(TrainJob {
+            pooling: Some("gem".into()),
+            tilt_deg: Some(12.0),
+            ..job()
+        })
+        .unwrap();
+        let BackboneConfig::Compact { pooling, .. } = cfg.backbone else {
+            panic!("compact expected");
+        };
+        assert_eq!(pooling, Pooling::Gem);
+        assert_eq!(cfg.augment.tilt_deg, 12.0);
+        let e = config(TrainJob {
+            pooling: Some("max".into()),
+            ..job()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("--pooling max") && e.contains("gem"), "{e}");
+        let e = config(TrainJob {
+            tilt_deg: Some(90.0),
+            ..job()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("--tilt-deg 90"), "{e}");
+        let e = config(TrainJob {
+            backbone: "googlenet".into(),
+            pooling: Some("gem".into()),
+            ..job()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("compact backbone"), "{e}");
+    }
+
+    #[test]
+    fn pair_settings_reach_the_config_and_bad_values_are_named() {
+        let track = |frames: Option<&str>, near: Option<f32>| TrainJob {
+            pairs: Some("track".into()),
+            pair_frames: frames.map(str::to_string),
+            near_fraction: near,
+            ..job()
+        };
+        assert_eq!(config(track(None, None)).unwrap().pairs, PairRule::track());
+        assert_eq!(
+            config(track(Some("2,8"), Some(0.3))).unwrap().pairs,
+            PairRule::Track {
+                positive_frames: 2,
+                negative_frames: 8,
+                near_fraction: 0.3,
+                zone_fraction: 0.0
+            }
+        );
+        let e = config(TrainJob {
+            pairs: Some("frames".into()),
+            ..job()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("--pairs frames"), "{e}");
+        let e = config(TrainJob {
+            pair_frames: Some("2,8".into()),
+            ..job()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("--pairs track"), "{e}");
+        let e = config(track(Some("8"), None)).unwrap_err().to_string();
+        assert!(e.contains("--pair-frames 8"), "{e}");
+        let e = config(track(Some("8,4"), None)).unwrap_err().to_string();
+        assert!(e.contains("negative_frames 4 > positive_frames"), "{e}");
+    }
+
+    #[test]
+    fn zone_specs_parse_and_bad_ones_are_named() {
+        assert_eq!(
+            zone_config("expert:30", "arc-length").unwrap(),
+            ZoneConfig::Expert { count: 30 }
+        );
+        let e = zone_config("many", "arc-length").unwrap_err().to_string();
+        assert!(e.contains("--zones many"), "{e}");
+    }
+}
