@@ -73,9 +73,9 @@ pub fn train_regressor(
     if let Some(e) = epochs {
         cfg.schedule.epochs = e;
     }
-    let bar = bar(progress, train.len() as u64, "load");
-    let set = TrainingSet::from_sequence(train, camera, cfg.backbone.input(), &mut |_| bar.inc(1))?;
-    bar.finish_and_clear();
+    let loading = bar(progress, train.len() as u64, "load");
+    let set = TrainingSet::from_sequence(train, camera, cfg.backbone.input(), &mut |_| loading.inc(1))?;
+    loading.finish_and_clear();
     let bar = bar(progress, 1, which.name());
     let t = Instant::now();
     match which {

@@ -92,6 +92,24 @@ impl From<endoloc_geometry::LocalizeError> for JobError {
     }
 }
 
+macro_rules! invalid_from {
+    ($($t:ty),*) => {
+        $(impl From<$t> for JobError {
+            fn from(e: $t) -> Self {
+                JobError::Invalid(e.to_string())
+            }
+        })*
+    };
+}
+
+invalid_from!(
+    std::num::ParseIntError,
+    std::num::ParseFloatError,
+    toml::de::Error,
+    toml::ser::Error,
+    serde_json::Error
+);
+
 /// The result of a job.
 pub type Result<T, E = JobError> = std::result::Result<T, E>;
 
@@ -147,4 +165,12 @@ mod tests {
         let cause = std::error::Error::source(&err).map(|s| s.to_string());
         assert_eq!(cause.as_deref(), Some("disk full"));
     }
+}
+
+/// Sends a `format!` line to a [`crate::Progress`] sink's `note`.
+#[macro_export]
+macro_rules! note {
+    ($progress:expr, $($arg:tt)*) => {
+        $progress.note(&format!($($arg)*))
+    };
 }

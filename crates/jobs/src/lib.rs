@@ -32,3 +32,6 @@ pub use localize::{LocalizeJob, LocalizeMethod, LocalizeReport};
 pub use map::{MapJob, MapReport};
 pub mod train;
 pub use train::{TrainJob, TrainMethod, TrainReport};
+pub mod experiment;
+pub mod pipeline;
+pub use pipeline::{DemoJob, DemoReport, RunJob, Timings};

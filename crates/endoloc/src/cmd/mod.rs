@@ -1,6 +1,5 @@
 //! One module per subcommand.
 
-pub mod baselines;
 pub mod classify;
 pub mod dataset;
 pub mod demo;

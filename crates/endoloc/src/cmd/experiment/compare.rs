@@ -1,19 +1,10 @@
-//! `endoloc experiment compare`: every method on the same data, the paper's Table I.
+//! `endoloc experiment compare`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result};
-use clap::ValueEnum;
-use endoloc_eval::{HtmlReport, PlotConfig, plot_method_bars};
-use endoloc_localize::map_io::load_map;
-use endoloc_net::ZoneClassifier;
-use serde::Serialize;
-
-use super::common::{
-    self, Data, DataArgs, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
-    ensure_model, predict_zones, run_endoloc, write_and_evaluate,
-};
-use crate::cmd::baselines::{self, Regressor};
+use anyhow::Result;
+use endoloc_jobs::Progress;
+use endoloc_jobs::experiment::*;
 
 /// Compare every method on one dataset: our two-step method (per frame as in the paper,
 /// with candidate zones, live and offline temporal filtering) against the baselines —
@@ -30,400 +21,52 @@ use crate::cmd::baselines::{self, Regressor};
 #[command(verbatim_doc_comment)]
 pub struct Args {
     #[command(flatten)]
-    data: DataArgs,
+    data: super::DataArgs,
     /// Output folder.
-    #[arg(long, default_value = "experiments/compare")]
+    #[arg(long, default_value_os_t = CompareJob::default().out)]
     out: PathBuf,
     /// Zones (a count, or `expert`).
-    #[arg(long, default_value = "50")]
+    #[arg(long, default_value_t = CompareJob::default().zones)]
     zones: String,
     /// Training epochs of the learned models (default: each schedule's own).
     #[arg(long)]
     epochs: Option<usize>,
     /// Seed of every training.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = CompareJob::default().seed)]
     seed: u64,
     /// SURF threshold of the maps; test frames are described at twice it and retried at it
     /// (as `endoloc localize` does by default; see `endoloc map --help`).
-    #[arg(long, default_value_t = crate::cmd::localize::DEFAULT_MAP_THRESHOLD)]
-    threshold: f64,
+    #[arg(long, default_value_t = CompareJob::default().threshold)]
+    threshold: f32,
     /// Use this trained Siamese model (with or without a map) instead of training one.
     #[arg(long, value_name = "DIR")]
     model: Option<PathBuf>,
     /// Methods to run (default: all).
-    #[arg(long, value_enum, value_delimiter = ',')]
-    methods: Vec<Method>,
+    #[arg(long, value_delimiter = ',')]
+    methods: Vec<CompareMethod>,
     /// Use an output folder that holds something else.
     #[arg(long)]
     force: bool,
 }
 
-/// A localization method of the comparison.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Method {
-    /// The paper's rule: top zone → median pose → SURF matching → Gauss-Newton.
-    EndolocPaper,
-    /// Ours, trying the 3 best-scoring zones until one registers.
-    Endoloc,
-    /// Ours live: frames in order, the causal track filter, registration from the last pose.
-    EndolocLive,
-    /// Ours with offline Viterbi zone smoothing.
-    EndolocViterbi,
-    /// Ours with offline track smoothing (forward–backward over training frames and speed).
-    EndolocSmooth,
-    /// PoseNet: absolute pose regression.
-    Posenet,
-    /// OffsetNet: relative pose from the retrieved reference image.
-    Offsetnet,
-    /// Monocular visual odometry (first pose aligned, scale from the ground truth).
-    Vo,
-    /// The classified zone's median pose (the first step alone).
-    Classify,
-    /// The pose of the nearest training image in descriptor space.
-    Retrieval,
-}
-
-impl Method {
-    fn all() -> Vec<Method> {
-        Method::value_variants().to_vec()
-    }
-
-    pub(super) fn name(self) -> String {
-        self.to_possible_value()
-            .map(|v| v.get_name().to_string())
-            .unwrap_or_default()
-    }
-
-    fn description(self) -> &'static str {
-        match self {
-            Method::EndolocPaper => "two-step, top zone only (the paper's rule)",
-            Method::Endoloc => "two-step, up to 3 candidate zones",
-            Method::EndolocLive => "two-step, live: causal track filter and tracking, 3 candidates",
-            Method::EndolocViterbi => "two-step, offline Viterbi zones, 3 candidates",
-            Method::EndolocSmooth => "two-step, offline track-smoothed zones, 3 candidates",
-            Method::Posenet => "PoseNet pose regression (Kendall et al. 2015)",
-            Method::Offsetnet => {
-                "OffsetNet relative pose to the retrieved image (Sganga et al. 2018)"
-            }
-            Method::Vo => "monocular SURF visual odometry, first pose and scale from the truth",
-            Method::Classify => "zone median pose (classification only)",
-            Method::Retrieval => "pose of the nearest training image",
+impl From<Args> for CompareJob {
+    fn from(a: Args) -> Self {
+        CompareJob {
+            data: a.data.into(),
+            out: a.out,
+            zones: a.zones,
+            epochs: a.epochs,
+            seed: a.seed,
+            threshold: a.threshold,
+            model: a.model,
+            methods: a.methods,
+            force: a.force,
         }
     }
-}
-
-/// The configuration saved next to the results.
-#[derive(Serialize)]
-struct Saved<'a> {
-    experiment: &'static str,
-    data: String,
-    train: &'a str,
-    test: &'a str,
-    zones: &'a str,
-    epochs: Option<usize>,
-    seed: u64,
-    threshold: f64,
-    model: String,
-    methods: Vec<String>,
 }
 
 /// Runs `endoloc experiment compare`.
-pub fn run(args: Args) -> Result<()> {
-    common::prepare_out(&args.out, "compare.toml", args.force)?;
-    let data = Data::from_args(&args.data)?;
-    let methods = if args.methods.is_empty() {
-        Method::all()
-    } else {
-        args.methods.clone()
-    };
-    let model = args
-        .model
-        .clone()
-        .unwrap_or_else(|| args.out.join("models/siamese"));
-    let saved = Saved {
-        experiment: "compare",
-        data: args.data.data.display().to_string(),
-        train: &args.data.train,
-        test: &args.data.test,
-        zones: &args.zones,
-        epochs: args.epochs,
-        seed: args.seed,
-        threshold: args.threshold,
-        model: model.display().to_string(),
-        methods: methods.iter().map(|m| m.name()).collect(),
-    };
-    common::write_text(
-        &args.out.join("compare.toml"),
-        &toml::to_string_pretty(&saved).context("serializing the configuration")?,
-    )?;
-
-    let spec = TrainSpec {
-        zones: args.zones.clone(),
-        epochs: args.epochs,
-        seed: args.seed,
-    };
-    ensure_model(&model, &data, &spec)?;
-    ensure_map(&model, &data, args.threshold, &[])?;
-    let classifier = ZoneClassifier::load(&model)?;
-    classifier.check_compatible(&data_camera(&data)?)?;
-
-    let mut ctx = Ctx {
-        data: &data,
-        model: &model,
-        out: &args.out,
-        classifier: &classifier,
-        preds: None,
-        features: None,
-        epochs: args.epochs,
-        seed: args.seed,
-    };
-    let mut rows = Vec::new();
-    for m in methods {
-        let dir = args.out.join("runs").join(m.name());
-        let row_file = dir.join("row.json");
-        if let Some(row) = std::fs::read_to_string(&row_file)
-            .ok()
-            .and_then(|s| serde_json::from_str::<MethodRow>(&s).ok())
-        {
-            eprintln!("reusing   {} ({})", m.name(), row_file.display());
-            rows.push(row);
-            continue;
-        }
-        eprintln!("\n== {}: {}", m.name(), m.description());
-        let output = ctx.run(m)?;
-        let row = write_and_evaluate(&dir, &data.test, &output)?;
-        common::write_text(&row_file, &serde_json::to_string_pretty(&row)?)?;
-        print_row(&row);
-        rows.push(row);
-    }
-    write_outputs(&args.out, &rows, &saved)
-}
-
-fn data_camera(data: &Data) -> Result<endoloc_geometry::Camera> {
-    Ok(endoloc_data::Dataset::open(&data.dir)?.meta.camera)
-}
-
-struct Ctx<'a> {
-    data: &'a Data,
-    model: &'a Path,
-    out: &'a Path,
-    classifier: &'a ZoneClassifier,
-    preds: Option<(Vec<endoloc_net::ZonePrediction>, f64)>,
-    features: Option<FeatureCache>,
-    epochs: Option<usize>,
-    seed: u64,
-}
-
-impl Ctx<'_> {
-    fn preds(&mut self) -> Result<&(Vec<endoloc_net::ZonePrediction>, f64)> {
-        if self.preds.is_none() {
-            self.preds = Some(predict_zones(self.classifier, &self.data.test)?);
-        }
-        self.preds.as_ref().context("zone predictions")
-    }
-
-    fn run(&mut self, m: Method) -> Result<MethodOutput> {
-        let ours = |choice, candidates| (choice, candidates);
-        let setting = match m {
-            Method::EndolocPaper => Some(ours(ZoneChoice::PerFrame, 1)),
-            Method::Endoloc => Some(ours(ZoneChoice::PerFrame, 3)),
-            Method::EndolocLive => Some(ours(ZoneChoice::Live, 3)),
-            Method::EndolocViterbi => Some(ours(ZoneChoice::Viterbi, 3)),
-            Method::EndolocSmooth => Some(ours(ZoneChoice::Smooth, 3)),
-            _ => None,
-        };
-        if let Some((choice, candidates)) = setting {
-            let surf = load_map(self.model)?.config.surf.clone();
-            self.preds()?;
-            let features = FeatureCache::get(&mut self.features, &self.data.test, &surf)?;
-            let (preds, zone_ms) = self.preds.as_ref().context("zone predictions")?;
-            let results = run_endoloc(self.model, features, preds, *zone_ms, choice, candidates)?;
-            return Ok(MethodOutput::from_results(
-                &m.name(),
-                m.description(),
-                results,
-            ));
-        }
-        let (preds, zone_ms) = self.preds()?.clone();
-        let train_poses = self.classifier.train_poses();
-        let zones = &self.classifier.zones().zones;
-        let simple = |poses: Vec<Option<endoloc_geometry::Pose>>| MethodOutput {
-            name: m.name(),
-            description: m.description().into(),
-            poses,
-            results: None,
-            ms_per_frame: zone_ms,
-        };
-        match m {
-            Method::Classify => Ok(simple(
-                preds
-                    .iter()
-                    .map(|p| zones.get(p.zone).map(|z| z.median_pose))
-                    .collect(),
-            )),
-            Method::Retrieval => Ok(simple(
-                preds
-                    .iter()
-                    .map(|p| train_poses.get(p.nearest_frame).copied())
-                    .collect(),
-            )),
-            Method::Posenet | Method::Offsetnet | Method::Vo => {
-                let ds = endoloc_data::Dataset::open(&self.data.dir)?;
-                let train = ds.sequence(&self.data.train_name)?;
-                let test = &self.data.test;
-                let models = self.out.join("models");
-                let est = match m {
-                    Method::Posenet | Method::Offsetnet => {
-                        let which = if m == Method::Posenet {
-                            Regressor::PoseNet
-                        } else {
-                            Regressor::OffsetNet
-                        };
-                        let dir = models.join(which.name());
-                        if dir.join("regress.toml").is_file() {
-                            eprintln!("reusing   model {}", dir.display());
-                        } else {
-                            baselines::train_regressor(
-                                which,
-                                &train,
-                                &ds.meta.camera,
-                                &dir,
-                                self.epochs,
-                                self.seed,
-                                false,
-                            )?;
-                        }
-                        if which == Regressor::PoseNet {
-                            baselines::posenet(&dir, test)?
-                        } else {
-                            baselines::offsetnet(&dir, &train, test, &preds, zone_ms)?
-                        }
-                    }
-                    _ => baselines::vo(&ds.meta.camera, test)?,
-                };
-                if let Some(note) = &est.note {
-                    eprintln!("{note}");
-                    common::write_text(
-                        &self.out.join("runs").join(m.name()).join("note.txt"),
-                        note,
-                    )?;
-                }
-                Ok(MethodOutput {
-                    name: m.name(),
-                    description: m.description().into(),
-                    poses: est.poses,
-                    results: None,
-                    ms_per_frame: est.ms_per_frame,
-                })
-            }
-            _ => unreachable!("our method is handled above"),
-        }
-    }
-}
-
-fn print_row(r: &MethodRow) {
-    let f = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.2}"));
-    println!(
-        "{:<16} mean {} mm / {}°, median {} mm / {}°, localized {:.1} %{}, {:.1} ms/frame",
-        r.method,
-        f(r.mean_position_mm),
-        f(r.mean_orientation_deg),
-        f(r.median_position_mm),
-        f(r.median_orientation_deg),
-        100.0 * r.localized as f64 / r.frames.max(1) as f64,
-        r.refined
-            .map(|k| format!(
-                ", refined {:.1} %",
-                100.0 * k as f64 / r.frames.max(1) as f64
-            ))
-            .unwrap_or_default(),
-        r.ms_per_frame
-    );
-}
-
-/// The best of our variants against the best learning baseline (PoseNet, OffsetNet), as
-/// relative improvements of the mean errors (the paper's 28.9 % and 10.97 %).
-fn margins(rows: &[MethodRow]) -> Option<String> {
-    let ours = rows
-        .iter()
-        .filter(|r| r.method.starts_with("endoloc"))
-        .filter_map(|r| Some((r, r.mean_position_mm?)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?
-        .0;
-    let learned = rows
-        .iter()
-        .filter(|r| r.method == "posenet" || r.method == "offsetnet")
-        .filter_map(|r| Some((r, r.mean_position_mm?)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?
-        .0;
-    let gain = |a: Option<f64>, b: Option<f64>| match (a, b) {
-        (Some(a), Some(b)) if b > 0.0 => format!("{:.1} %", 100.0 * (b - a) / b),
-        _ => "—".into(),
-    };
-    Some(format!(
-        "Best of ours ({}) against the best learning baseline ({}): mean position error {} lower \
-         (paper: 28.9 %), mean orientation error {} lower (paper: 10.97 %).",
-        ours.method,
-        learned.method,
-        gain(ours.mean_position_mm, learned.mean_position_mm),
-        gain(ours.mean_orientation_deg, learned.mean_orientation_deg)
-    ))
-}
-
-fn write_outputs(out: &Path, rows: &[MethodRow], saved: &Saved<'_>) -> Result<()> {
-    let table = common::markdown_table(rows);
-    let margin = margins(rows);
-    let mut md = String::from("# Method comparison (the paper's Table I)\n\n");
-    md.push_str(&format!(
-        "Dataset `{}` ({} → {}), {} zones. Errors over the frames each method localizes \
-         (for ours: `refined` and `init_only`; `rejected` frames have no pose).\n\n",
-        saved.data, saved.train, saved.test, saved.zones
-    ));
-    md.push_str(&table);
-    if let Some(m) = &margin {
-        md.push_str(&format!("\n{m}\n"));
-    }
-    md.push_str("\n![errors by method](compare.png)\n");
-    common::write_text(&out.join("compare.md"), &md)?;
-    common::write_text(
-        &out.join("compare.json"),
-        &serde_json::to_string_pretty(rows)?,
-    )?;
-    let png = out.join("compare.png");
-    plot_method_bars(&common::bars(rows), &png, &PlotConfig::default())?;
-
-    let mut html = HtmlReport::new("endoloc — method comparison");
-    html.push(endoloc_eval::Block::Paragraph(format!(
-        "Dataset {} (train {}, test {}), {} zones, seed {}, SURF threshold {}.",
-        saved.data, saved.train, saved.test, saved.zones, saved.seed, saved.threshold
-    )))
-    .push(common::html_table(rows));
-    if let Some(m) = margin {
-        html.push(endoloc_eval::Block::Paragraph(m));
-    }
-    if let Some(b) = common::image_block(&png, "Mean and median errors by method") {
-        html.push(b);
-    }
-    for r in rows {
-        let p = out
-            .join("runs")
-            .join(&r.method)
-            .join("eval/trajectory_xy.png");
-        if p.is_file()
-            && let Some(b) =
-                common::image_block(&p, &format!("{}: trajectory, X-Y plane", r.method))
-        {
-            html.push(b);
-        }
-    }
-    html.push(endoloc_eval::Block::Heading("Configuration".into()))
-        .push(endoloc_eval::Block::Code(toml::to_string_pretty(saved)?));
-    common::write_text(&out.join("report.html"), &html.render())?;
-    println!("\n{table}");
-    println!(
-        "wrote     {}/compare.md, compare.json, compare.png, report.html",
-        out.display()
-    );
+pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
+    CompareJob::from(args).run(ui)?;
     Ok(())
 }

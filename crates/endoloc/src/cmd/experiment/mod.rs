@@ -1,24 +1,17 @@
 //! `endoloc experiment`: the paper's comparisons and studies, each in one output folder with
-//! its tables (markdown, JSON), plots and a self-contained HTML report.
-//!
-//! - `compare` — every method on the same data (the paper's Table I);
-//! - `zones` — the Monte-Carlo zone-count sweep (the paper's Fig. 4), resumable;
-//! - `expert` — anatomical zones against uniform ones;
-//! - `perturb` — the error when the zone is forced wrong by ±e (the paper's Fig. 7).
-//!
-//! Experiments reuse what they already computed: a folder's models, maps and runs are kept,
-//! and a second invocation continues where the first stopped. SURF features of the test
-//! frames are extracted once per process and shared by every run that needs them.
+//! its tables (markdown, JSON), plots and a self-contained HTML report. Experiments reuse what
+//! they already computed: running the same command again continues where it stopped.
 
-mod common;
 mod compare;
 mod expert;
 mod perturb;
 mod zones;
 
-use anyhow::Result;
+use std::path::PathBuf;
 
-pub(crate) use common::predict_zones;
+use anyhow::Result;
+use endoloc_jobs::Progress;
+use endoloc_jobs::experiment::ExperimentData;
 
 /// Run the paper's comparisons and studies (Table I, Fig. 4, Fig. 7, anatomical zones).
 #[derive(Debug, clap::Args)]
@@ -35,12 +28,36 @@ enum What {
     Perturb(perturb::Args),
 }
 
+/// Where an experiment's data is (flattened into each experiment's arguments).
+#[derive(Debug, Clone, clap::Args)]
+struct DataArgs {
+    /// Dataset with a training and a test sequence.
+    #[arg(long, value_name = "DIR")]
+    data: PathBuf,
+    /// Training sequence.
+    #[arg(long, default_value_t = ExperimentData::default().train)]
+    train: String,
+    /// Test sequence.
+    #[arg(long, default_value_t = ExperimentData::default().test)]
+    test: String,
+}
+
+impl From<DataArgs> for ExperimentData {
+    fn from(a: DataArgs) -> Self {
+        ExperimentData {
+            data: a.data,
+            train: a.train,
+            test: a.test,
+        }
+    }
+}
+
 /// Runs `endoloc experiment`.
-pub fn run(args: Args) -> Result<()> {
+pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
     match args.what {
-        What::Compare(a) => compare::run(a),
-        What::Zones(a) => zones::run(a),
-        What::Expert(a) => expert::run(a),
-        What::Perturb(a) => perturb::run(a),
+        What::Compare(a) => compare::run(a, ui),
+        What::Zones(a) => zones::run(a, ui),
+        What::Expert(a) => expert::run(a, ui),
+        What::Perturb(a) => perturb::run(a, ui),
     }
 }

@@ -6,7 +6,10 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use crate::bail;
+use crate::error::{Context, Result};
+use crate::note;
+use crate::progress::{Progress, bar};
 use endoloc_data::{Dataset, Sequence, StampedPose};
 use endoloc_eval::{
     Block, EvalConfig, EvalInputs, FrameRecord, MethodBar, Sources, WriteOptions, evaluate,
@@ -17,25 +20,33 @@ use endoloc_geometry::{Pose, Status};
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, RetryFeatures, StageTimes};
 use endoloc_net::{ZoneClassifier, ZonePrediction, viterbi};
+
+pub(super) use crate::predict::predict_zones;
+use crate::{MapJob, TrainJob};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::cmd;
-use crate::cmd::demo::parse;
-use crate::ui;
 
-/// Where an experiment's data is (flattened into each experiment's arguments).
-#[derive(Debug, Clone, clap::Args)]
-pub(super) struct DataArgs {
+/// Where an experiment's data is.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DataArgs {
     /// Dataset with a training and a test sequence.
-    #[arg(long, value_name = "DIR")]
     pub data: PathBuf,
     /// Training sequence.
-    #[arg(long, default_value = "train")]
     pub train: String,
     /// Test sequence.
-    #[arg(long, default_value = "test")]
     pub test: String,
+}
+
+impl Default for DataArgs {
+    fn default() -> Self {
+        DataArgs {
+            data: PathBuf::new(),
+            train: "train".into(),
+            test: "test".into(),
+        }
+    }
 }
 
 /// The dataset an experiment runs on: its training and test sequences.
@@ -86,36 +97,29 @@ pub(super) struct TrainSpec {
 
 /// Trains a model into `dir` unless a finished one is already there (`model.toml` present).
 /// Returns whether it trained.
-pub(super) fn ensure_model(dir: &Path, data: &Data, spec: &TrainSpec) -> Result<bool> {
+pub(super) fn ensure_model(
+    dir: &Path,
+    data: &Data,
+    spec: &TrainSpec,
+    progress: &dyn Progress,
+) -> Result<bool> {
     if dir.join("model.toml").is_file() {
-        eprintln!("reusing   model {}", dir.display());
+        note!(progress, "reusing   model {}", dir.display());
         return Ok(false);
     }
-    let mut argv: Vec<String> = [
-        "train",
-        "--data",
-        &data.dir.display().to_string(),
-        "--seq",
-        &data.train_name,
-        "--zones",
-        &spec.zones,
-        "--out",
-        &dir.display().to_string(),
-        "--seed",
-        &spec.seed.to_string(),
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    if let Some(e) = spec.epochs {
-        argv.extend(["--epochs".to_string(), e.to_string()]);
-    }
-    // A half-written model folder from an interrupted run is resumed by `train` itself.
-    if dir.with_extension("partial").exists() {
-        argv.push("--resume".into());
-    }
-    cmd::demo::stage("train", &argv);
-    cmd::train::run(parse(&argv)?)?;
+    let job = TrainJob {
+        data: data.dir.clone(),
+        seq: data.train_name.clone(),
+        zones: spec.zones.clone(),
+        out: dir.to_path_buf(),
+        seed: spec.seed,
+        epochs: spec.epochs,
+        // A half-written model folder from an interrupted run is resumed by the training.
+        resume: dir.with_extension("partial").exists(),
+        ..TrainJob::default()
+    };
+    note!(progress, "\n== train: {}", job.out.display());
+    job.run(progress)?;
     Ok(true)
 }
 
@@ -125,8 +129,9 @@ pub(super) fn ensure_model(dir: &Path, data: &Data, spec: &TrainSpec) -> Result<
 pub(super) fn ensure_map(
     model: &Path,
     data: &Data,
-    threshold: f64,
+    threshold: f32,
     share_from: &[PathBuf],
+    progress: &dyn Progress,
 ) -> Result<()> {
     if model.join("map.bin").is_file() {
         return Ok(());
@@ -143,7 +148,8 @@ pub(super) fn ensure_map(
                     .with_context(|| format!("reading {}/{f}", other.display()))?;
                 write_atomic(&model.join(f), &bytes)?;
             }
-            eprintln!(
+            note!(
+                progress,
                 "reusing   map of {} (same zones) for {}",
                 other.display(),
                 model.display()
@@ -151,22 +157,17 @@ pub(super) fn ensure_map(
             return Ok(());
         }
     }
-    let argv: Vec<String> = [
-        "map",
-        "--model",
-        &model.display().to_string(),
-        "--data",
-        &data.dir.display().to_string(),
-        "--seq",
-        &data.train_name,
-        "--threshold",
-        &threshold.to_string(),
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    cmd::demo::stage("map", &argv);
-    cmd::localize::run_map(parse(&argv)?)
+    let job = MapJob {
+        model: model.to_path_buf(),
+        data: data.dir.clone(),
+        seq: data.train_name.clone(),
+        threshold,
+        ..MapJob::default()
+    };
+    note!(progress, "\n== map: {}", model.display());
+    let report = job.run(progress)?;
+    note!(progress, "{report}");
+    Ok(())
 }
 
 /// SURF features of every test frame, extracted once: at the localizer's test-frame
@@ -190,14 +191,19 @@ pub(super) struct FeatureCache {
 impl FeatureCache {
     /// Extracts the features of `seq` with `surf`, and at `retry_threshold` when that is
     /// positive and below `surf`'s.
-    pub fn extract(seq: &Sequence, surf: &SurfConfig, retry_threshold: f32) -> Result<Self> {
+    pub fn extract(
+        seq: &Sequence,
+        surf: &SurfConfig,
+        retry_threshold: f32,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
         let extractor = surf.clone().init().context("SURF settings")?;
         let retry_threshold = effective_retry(surf, retry_threshold);
         let retry = (retry_threshold > 0.0)
             .then(|| surf.clone().with_threshold(retry_threshold).init())
             .transpose()
             .context("SURF retry settings")?;
-        let bar = ui::progress_bar(seq.len() as u64, "SURF");
+        let bar = bar(progress, seq.len() as u64, "SURF");
         type Timed = (Vec<Feature>, f64);
         let out: Result<Vec<(Timed, Timed)>> = (0..seq.len())
             .into_par_iter()
@@ -238,19 +244,22 @@ impl FeatureCache {
     }
 
     /// Reuses `cache` when it was extracted for the test-frame settings that go with a map
-    /// built with `map_surf` ([`cmd::localize::test_frame_surf`]), else extracts anew into it.
+    /// built with `map_surf` (the localizer's defaults), else extracts anew into it.
     pub fn get<'a>(
         cache: &'a mut Option<FeatureCache>,
         seq: &Sequence,
         map_surf: &SurfConfig,
+        progress: &dyn Progress,
     ) -> Result<&'a FeatureCache> {
-        let cfg = cmd::localize::test_frame_surf(map_surf, None, None);
-        let retry = effective_retry(&cfg.surf, cfg.retry_threshold);
+        let cfg = LocalizerConfig::default();
+        let surf = cfg.test_surf(map_surf);
+        let retry_threshold = cfg.retry_threshold_for(map_surf);
+        let retry = effective_retry(&surf, retry_threshold);
         if cache
             .as_ref()
-            .is_none_or(|c| c.surf != cfg.surf || c.retry_threshold != retry)
+            .is_none_or(|c| c.surf != surf || c.retry_threshold != retry)
         {
-            *cache = Some(Self::extract(seq, &cfg.surf, cfg.retry_threshold)?);
+            *cache = Some(Self::extract(seq, &surf, retry_threshold, progress)?);
         }
         cache.as_ref().context("feature cache")
     }
@@ -271,30 +280,6 @@ fn effective_retry(surf: &SurfConfig, retry: f32) -> f32 {
     } else {
         0.0
     }
-}
-
-/// Zone predictions of every test frame, and the time per frame (descriptor + look-up,
-/// batched over both cores), ms.
-pub(crate) fn predict_zones(
-    classifier: &ZoneClassifier,
-    seq: &Sequence,
-) -> Result<(Vec<ZonePrediction>, f64)> {
-    const BATCH: usize = 64;
-    let bar = ui::progress_bar(seq.len() as u64, "zones");
-    let t = Instant::now();
-    let mut preds = Vec::with_capacity(seq.len());
-    for start in (0..seq.len()).step_by(BATCH) {
-        let end = (start + BATCH).min(seq.len());
-        let imgs: Result<Vec<_>> = (start..end)
-            .into_par_iter()
-            .map(|i| Ok(seq.load_gray(i)?))
-            .collect();
-        preds.extend(classifier.classify_batch(&imgs?)?);
-        bar.inc((end - start) as u64);
-    }
-    bar.finish_and_clear();
-    let ms = t.elapsed().as_secs_f64() * 1e3 / seq.len().max(1) as f64;
-    Ok((preds, ms))
 }
 
 /// How our method picks the zone of each frame.
@@ -320,14 +305,15 @@ pub(super) fn run_endoloc(
     zone_ms: f64,
     choice: ZoneChoice,
     candidate_zones: usize,
+    progress: &dyn Progress,
 ) -> Result<Vec<FrameResult>> {
     let classifier = ZoneClassifier::load(model)
         .with_context(|| format!("loading model {}", model.display()))?;
     let map = load_map(model)?;
     let cfg = LocalizerConfig {
         candidate_zones,
-        surf: features.surf.clone(),
-        retry_threshold: features.retry_threshold,
+        surf: Some(features.surf.clone()),
+        retry_threshold: Some(features.retry_threshold),
         ..LocalizerConfig::default()
     };
     let localizer = Localizer::new(classifier, map, cfg)?;
@@ -339,7 +325,7 @@ pub(super) fn run_endoloc(
     };
     if choice == ZoneChoice::Live {
         // One frame at a time, in order: the state carries the zone filter and the last pose.
-        let bar = ui::progress_bar(n as u64, "live");
+        let bar = bar(progress, n as u64, "live");
         let mut state = localizer.live_state();
         let mut out = Vec::with_capacity(n);
         for i in 0..n {
@@ -374,7 +360,7 @@ pub(super) fn run_endoloc(
                 .collect()
         }
     };
-    let bar = ui::progress_bar(n as u64, "localize");
+    let bar = bar(progress, n as u64, "localize");
     let results: Result<Vec<FrameResult>> = (0..n)
         .into_par_iter()
         .map(|i| {
@@ -465,7 +451,7 @@ pub(super) fn write_and_evaluate(
     let frames: Option<Vec<FrameRecord>> = out
         .results
         .as_deref()
-        .map(crate::cmd::localize::frame_records);
+        .map(crate::localize::frame_records);
     if let Some(f) = &frames {
         write_frames_csv(&dir.join("frames.csv"), f)?;
     }
@@ -606,14 +592,14 @@ pub(super) fn write_text(path: &Path, text: &str) -> Result<()> {
 }
 
 /// Reads a PNG for embedding (a missing plot is reported, not fatal).
-pub(super) fn image_block(path: &Path, caption: &str) -> Option<Block> {
+pub(super) fn image_block(path: &Path, caption: &str, progress: &dyn Progress) -> Option<Block> {
     match std::fs::read(path) {
         Ok(png) => Some(Block::Image {
             caption: caption.into(),
             png,
         }),
         Err(e) => {
-            eprintln!("warning: {} not embedded: {e}", path.display());
+            note!(progress, "warning: {} not embedded: {e}", path.display());
             None
         }
     }
@@ -643,7 +629,8 @@ pub(super) fn prepare_out(out: &Path, marker: &str, force: bool) -> Result<()> {
 /// Position error (mm) and orientation error (degrees, geodesic angle of `R_estᵀ R_gt`) of
 /// one estimate, as `endoloc eval` computes them.
 pub(super) fn pose_error(est: &Pose, gt: &Pose) -> (f64, f64) {
-    let dp = (est.translation.vector - gt.translation.vector).norm();
-    let dr = (est.rotation.inverse() * gt.rotation).angle().to_degrees();
-    (dp, dr)
+    (
+        endoloc_geometry::position_error_mm(est, gt),
+        endoloc_geometry::orientation_error_deg(est, gt),
+    )
 }

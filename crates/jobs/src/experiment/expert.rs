@@ -1,0 +1,178 @@
+//! `endoloc experiment expert`: anatomical zones (the sections, subdivided to N) against
+//! uniform zones, through the same method.
+
+use std::path::PathBuf;
+
+use crate::bail;
+use crate::error::{Context, Result};
+use endoloc_eval::{HtmlReport, PlotConfig, plot_method_bars};
+use endoloc_localize::map_io::load_map;
+use endoloc_net::ZoneClassifier;
+
+use serde::{Deserialize, Serialize};
+
+use crate::progress::Progress;
+use crate::note;
+use super::common::{
+    self, Data, DataArgs, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
+    ensure_model, predict_zones, run_endoloc, write_and_evaluate,
+};
+
+/// Anatomical ("expert") zones against uniform ones: train one model on the sections of
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ExpertJob {
+    /// Where the data is.
+    pub data: DataArgs,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Anatomical zones in all (the sections, long ones subdivided).
+    pub count: usize,
+    /// Uniform zone count to compare with.
+    pub uniform: Option<usize>,
+    /// Take the uniform count from a finished zone sweep (its best median).
+    pub sweep: Option<PathBuf>,
+    /// Training epochs (default: the `fast` schedule's).
+    pub epochs: Option<usize>,
+    /// Training seed.
+    pub seed: u64,
+    /// SURF threshold of the maps; test frames are described at twice it and retried at it
+    pub threshold: f32,
+    /// Use an output folder that holds something else.
+    pub force: bool,
+}
+
+impl Default for ExpertJob {
+    fn default() -> Self {
+        ExpertJob {
+            data: Default::default(),
+            out: "experiments/expert".into(),
+            count: 50,
+            uniform: None,
+            sweep: None,
+            epochs: None,
+            seed: 0,
+            threshold: endoloc_localize::DEFAULT_MAP_THRESHOLD,
+            force: false,
+        }
+    }
+}
+
+/// The best zone count of a sweep folder's results.csv (lowest median of run means).
+fn best_of_sweep(dir: &std::path::Path) -> Result<usize> {
+    let path = dir.join("results.csv");
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let mut by: std::collections::BTreeMap<usize, Vec<f64>> = Default::default();
+    for (i, line) in text.lines().enumerate().skip(1) {
+        let v: Vec<&str> = line.split(',').collect();
+        let parsed = (|| {
+            Some((
+                v.first()?.parse::<usize>().ok()?,
+                v.get(6)?.parse::<f64>().ok()?,
+            ))
+        })();
+        let Some((n, e)) = parsed else {
+            bail!(
+                "{} line {}: expected `zones,run,…,mean_position_mm,…`",
+                path.display(),
+                i + 1
+            );
+        };
+        by.entry(n).or_default().push(e);
+    }
+    by.into_iter()
+        .filter_map(|(n, mut v)| {
+            v.retain(|x| x.is_finite());
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).map(|&m| (n, m))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|x| x.0)
+        .with_context(|| format!("{} has no finished run", path.display()))
+}
+
+impl ExpertJob {
+    /// Runs the experiment.
+    ///
+    /// # Errors
+    /// Bad inputs, a failed stage, or an output folder that holds something else.
+    pub fn run(&self, progress: &dyn Progress) -> Result<()> {
+        let args = self;
+        common::prepare_out(&args.out, "expert.md", args.force)?;
+        let data = Data::from_args(&args.data)?;
+        if data.test.is_empty() {
+            bail!("empty test sequence");
+        }
+        let uniform = match (&args.sweep, args.uniform) {
+            (Some(d), _) => best_of_sweep(d)?,
+            (None, Some(n)) => n,
+            (None, None) => 50,
+        };
+        let variants = [
+            (
+                format!("expert-{}", args.count),
+                format!("expert:{}", args.count),
+                format!("anatomical sections subdivided to {} zones", args.count),
+            ),
+            (
+                format!("uniform-{uniform}"),
+                uniform.to_string(),
+                format!("{uniform} zones of equal arc length"),
+            ),
+        ];
+        let mut features: Option<FeatureCache> = None;
+        let mut rows: Vec<MethodRow> = Vec::new();
+        for (name, zones, description) in &variants {
+            let model = args.out.join("models").join(name);
+            ensure_model(
+                &model,
+                &data,
+                &TrainSpec {
+                    zones: zones.clone(),
+                    epochs: args.epochs,
+                    seed: args.seed,
+                },
+ progress,
+)?;
+            ensure_map(&model, &data, args.threshold, &[], progress)?;
+            let classifier = ZoneClassifier::load(&model)?;
+            let surf = load_map(&model)?.config.surf.clone();
+            let cache = FeatureCache::get(&mut features, &data.test, &surf, progress)?;
+            let (preds, zone_ms) = predict_zones(&classifier, &data.test, progress)?;
+            let results = run_endoloc(&model, cache, &preds, zone_ms, ZoneChoice::PerFrame, 3, progress)?;
+            let out = MethodOutput::from_results(name, description, results);
+            let row = write_and_evaluate(&args.out.join("runs").join(name), &data.test, &out)?;
+            rows.push(row);
+        }
+        let table = common::markdown_table(&rows);
+        let md = format!(
+            "# Anatomical against uniform zones\n\nDataset `{}`, our method with 3 candidate zones.\n\n{table}\n![errors](expert.png)\n",
+            args.data.data.display()
+        );
+        common::write_text(&args.out.join("expert.md"), &md)?;
+        common::write_text(
+            &args.out.join("expert.json"),
+            &serde_json::to_string_pretty(&rows)?,
+        )?;
+        let png = args.out.join("expert.png");
+        plot_method_bars(&common::bars(&rows), &png, &PlotConfig::default())?;
+        let mut html = HtmlReport::new("endoloc — anatomical against uniform zones");
+        html.push(endoloc_eval::Block::Paragraph(format!(
+            "Dataset {}; both models trained with seed {}.",
+            args.data.data.display(),
+            args.seed
+        )))
+        .push(common::html_table(&rows));
+        if let Some(b) = common::image_block(&png, "Errors by zoning", progress) {
+            html.push(b);
+        }
+        common::write_text(&args.out.join("report.html"), &html.render())?;
+        note!(progress, "\n{table}");
+        note!(progress, 
+            "wrote     {}/expert.md, expert.json, expert.png, report.html",
+            args.out.display()
+        );
+        Ok(())
+    }
+}

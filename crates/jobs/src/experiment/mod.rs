@@ -1,0 +1,23 @@
+//! The paper's comparisons and studies, each in one output folder with its tables (markdown,
+//! JSON), plots and a self-contained HTML report.
+//!
+//! - [`CompareJob`] — every method on the same data (the paper's Table I);
+//! - [`ZoneSweepJob`] — the Monte-Carlo zone-count sweep (the paper's Fig. 4), resumable;
+//! - [`ExpertJob`] — anatomical zones against uniform ones;
+//! - [`PerturbJob`] — the error when the zone is forced wrong by ±e (the paper's Fig. 7).
+//!
+//! Experiments reuse what they already computed: a folder's models, maps and runs are kept,
+//! and a second run continues where the first stopped. SURF features of the test frames are
+//! extracted once per run and shared by every method that needs them.
+
+mod common;
+mod compare;
+mod expert;
+mod perturb;
+mod zones;
+
+pub use common::DataArgs as ExperimentData;
+pub use compare::{CompareJob, Method as CompareMethod};
+pub use expert::ExpertJob;
+pub use perturb::PerturbJob;
+pub use zones::ZoneSweepJob;

@@ -1,0 +1,285 @@
+//! `endoloc experiment perturb`: force the zone of every test frame to `k + e`, `k` its true
+//! zone, and measure the error against `e` (the paper's Fig. 7): how wrong may the
+//! classifier be before the refinement stops recovering?
+
+use std::path::PathBuf;
+
+use crate::error::{Context, Result};
+use endoloc_eval::{CurvePoint, HtmlReport, PlotConfig, plot_error_curve};
+use endoloc_geometry::Status;
+use endoloc_localize::map_io::load_map;
+use endoloc_localize::{Localizer, LocalizerConfig, StageTimes};
+use endoloc_net::ZoneClassifier;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::progress::{Progress, bar};
+use crate::note;
+use super::common::{
+    self, Data, DataArgs, FeatureCache, TrainSpec, ensure_map, ensure_model, pose_error,
+};
+
+/// Force the zone of each test frame to k ± e (k: its true zone, from the ground-truth pose)
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PerturbJob {
+    /// Where the data is.
+    pub data: DataArgs,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Largest zone offset e.
+    pub max: usize,
+    /// Use every n-th test frame.
+    pub every: usize,
+    /// Map points also come from this many zones on each side of the forced one (0: the
+    pub neighbours: usize,
+    /// Trained model to use (trained into OUT/models/siamese when absent).
+    pub model: Option<PathBuf>,
+    /// Zones when training a model.
+    pub zones: String,
+    /// Training epochs when training a model.
+    pub epochs: Option<usize>,
+    /// Training seed.
+    pub seed: u64,
+    /// SURF threshold of a map built here and of the test frames.
+    pub threshold: f32,
+    /// Use an output folder that holds something else.
+    pub force: bool,
+}
+
+impl Default for PerturbJob {
+    fn default() -> Self {
+        PerturbJob {
+            data: Default::default(),
+            out: "experiments/perturb".into(),
+            max: 5,
+            every: 1,
+            neighbours: 0,
+            model: None,
+            zones: "50".into(),
+            epochs: None,
+            seed: 0,
+            threshold: endoloc_localize::DEFAULT_MAP_THRESHOLD,
+            force: false,
+        }
+    }
+}
+
+/// Errors at one offset.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct Row {
+    offset: i64,
+    frames: usize,
+    refined: usize,
+    localized: usize,
+    mean_position_mm: Option<f64>,
+    median_position_mm: Option<f64>,
+    mean_orientation_deg: Option<f64>,
+    median_orientation_deg: Option<f64>,
+    refined_mean_position_mm: Option<f64>,
+}
+
+fn mean_median(v: &mut [f64]) -> (Option<f64>, Option<f64>) {
+    if v.is_empty() {
+        return (None, None);
+    }
+    v.sort_by(f64::total_cmp);
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    let n = v.len();
+    let median = if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    };
+    (Some(mean), Some(median))
+}
+
+impl PerturbJob {
+    /// Runs the experiment.
+    ///
+    /// # Errors
+    /// Bad inputs, a failed stage, or an output folder that holds something else.
+    pub fn run(&self, progress: &dyn Progress) -> Result<()> {
+        let args = self;
+        common::prepare_out(&args.out, "perturb.md", args.force)?;
+        let data = Data::from_args(&args.data)?;
+        let model = args
+            .model
+            .clone()
+            .unwrap_or_else(|| args.out.join("models/siamese"));
+        ensure_model(
+            &model,
+            &data,
+            &TrainSpec {
+                zones: args.zones.clone(),
+                epochs: args.epochs,
+                seed: args.seed,
+            },
+ progress,
+)?;
+        ensure_map(&model, &data, args.threshold, &[], progress)?;
+        let classifier = ZoneClassifier::load(&model)?;
+        let map = load_map(&model)?;
+        let mut surf = map.config.surf.clone();
+        surf.threshold = args.threshold;
+        let truth: Vec<Option<usize>> = data
+            .test
+            .poses
+            .iter()
+            .map(|p| classifier.truth_zone(&p.pose))
+            .collect();
+        let n_zones = classifier.zone_count() as i64;
+        let localizer = Localizer::new(
+            classifier,
+            map,
+            LocalizerConfig {
+                neighbour_zones: args.neighbours,
+                surf: Some(surf.clone()),
+                retry_threshold: Some(0.0),
+                ..LocalizerConfig::default()
+            },
+        )?;
+        let features = FeatureCache::extract(&data.test, &surf, 0.0, progress)?;
+        let frames: Vec<usize> = (0..data.test.len()).step_by(args.every.max(1)).collect();
+        let max = args.max as i64;
+        let bar = bar(progress, ((2 * max + 1) as usize * frames.len()) as u64, "perturb");
+        let mut rows = Vec::new();
+        for e in -max..=max {
+            let per_frame: Result<Vec<Option<(Status, Option<(f64, f64)>)>>> = frames
+                .par_iter()
+                .map(|&i| {
+                    bar.inc(1);
+                    let Some(k) = truth[i] else { return Ok(None) };
+                    let z = k as i64 + e;
+                    if z < 0 || z >= n_zones {
+                        return Ok(None);
+                    }
+                    let r = localizer.register_in_zone(
+                        &features.features[i],
+                        z as usize,
+                        StageTimes::default(),
+                    )?;
+                    let err = r.t_wc.map(|p| pose_error(&p, &data.test.poses[i].pose));
+                    Ok(Some((r.status, err)))
+                })
+                .collect();
+            let per_frame: Vec<_> = per_frame?.into_iter().flatten().collect();
+            let mut pos: Vec<f64> = per_frame.iter().filter_map(|x| x.1.map(|e| e.0)).collect();
+            let mut rot: Vec<f64> = per_frame.iter().filter_map(|x| x.1.map(|e| e.1)).collect();
+            let mut refined_pos: Vec<f64> = per_frame
+                .iter()
+                .filter(|x| x.0 == Status::Refined)
+                .filter_map(|x| x.1.map(|e| e.0))
+                .collect();
+            let (mp, dp) = mean_median(&mut pos);
+            let (mr, dr) = mean_median(&mut rot);
+            rows.push(Row {
+                offset: e,
+                frames: per_frame.len(),
+                refined: per_frame.iter().filter(|x| x.0 == Status::Refined).count(),
+                localized: pos.len(),
+                mean_position_mm: mp,
+                median_position_mm: dp,
+                mean_orientation_deg: mr,
+                median_orientation_deg: dr,
+                refined_mean_position_mm: mean_median(&mut refined_pos).0,
+            });
+        }
+        bar.finish_and_clear();
+
+        let f = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.2}"));
+        let mut csv = String::from(
+            "offset,frames,refined,localized,mean_position_mm,median_position_mm,mean_orientation_deg,median_orientation_deg,refined_mean_position_mm\n",
+        );
+        let header = [
+            "e",
+            "frames",
+            "refined (%)",
+            "mean pos (mm)",
+            "median pos (mm)",
+            "mean rot (°)",
+            "median rot (°)",
+            "refined: mean pos (mm)",
+        ];
+        let mut md = format!(
+            "# Zone perturbation (the paper's Fig. 7)\n\nModel `{}`, test `{}`, every {} frame(s), \
+             map points of the forced zone ± {} neighbour(s). Errors over frames with a pose (the \
+             forced zone's median pose when the refinement fails).\n\n| {} |\n|{}\n",
+            model.display(),
+            data.test.dir.display(),
+            args.every.max(1),
+            args.neighbours,
+            header.join(" | "),
+            "---|".repeat(header.len())
+        );
+        let mut table_rows = Vec::new();
+        for r in &rows {
+            let opt = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x:.4}"));
+            csv.push_str(&format!(
+                "{},{},{},{},{},{},{},{},{}\n",
+                r.offset,
+                r.frames,
+                r.refined,
+                r.localized,
+                opt(r.mean_position_mm),
+                opt(r.median_position_mm),
+                opt(r.mean_orientation_deg),
+                opt(r.median_orientation_deg),
+                opt(r.refined_mean_position_mm)
+            ));
+            let cells = vec![
+                format!("{:+}", r.offset),
+                r.frames.to_string(),
+                format!("{:.1}", 100.0 * r.refined as f64 / r.frames.max(1) as f64),
+                f(r.mean_position_mm),
+                f(r.median_position_mm),
+                f(r.mean_orientation_deg),
+                f(r.median_orientation_deg),
+                f(r.refined_mean_position_mm),
+            ];
+            md.push_str(&format!("| {} |\n", cells.join(" | ")));
+            table_rows.push(cells);
+        }
+        md.push_str("\n![error against the zone offset](perturb.png)\n");
+        common::write_text(&args.out.join("perturb.csv"), &csv)?;
+        common::write_text(&args.out.join("perturb.md"), &md)?;
+        let png = args.out.join("perturb.png");
+        let points: Vec<CurvePoint> = rows
+            .iter()
+            .map(|r| CurvePoint {
+                x: r.offset as f64,
+                mean_position_mm: r.mean_position_mm,
+                median_position_mm: r.median_position_mm,
+                mean_orientation_deg: r.mean_orientation_deg,
+                median_orientation_deg: r.median_orientation_deg,
+            })
+            .collect();
+        plot_error_curve(
+            &points,
+            "forced zone offset e (zones)",
+            &png,
+            &PlotConfig::default(),
+        )?;
+        let mut html = HtmlReport::new("endoloc — zone perturbation");
+        html.push(endoloc_eval::Block::Paragraph(format!(
+            "Each test frame is localized from zone k + e, k its true zone. Model {}, data {}.",
+            model.display(),
+            args.data.data.display()
+        )))
+        .push(endoloc_eval::Block::Table {
+            header: header.iter().map(|s| s.to_string()).collect(),
+            rows: table_rows,
+        });
+        if let Some(b) = common::image_block(&png, "Errors against the forced zone offset", progress) {
+            html.push(b);
+        }
+        common::write_text(&args.out.join("report.html"), &html.render())
+            .context("writing report.html")?;
+        print!("{}", md.lines().skip(4).collect::<Vec<_>>().join("\n"));
+        note!(progress, 
+            "\nwrote     {}/perturb.csv, perturb.md, perturb.png, report.html",
+            args.out.display()
+        );
+        Ok(())
+    }
+}

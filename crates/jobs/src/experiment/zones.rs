@@ -1,0 +1,444 @@
+//! `endoloc experiment zones`: the Monte-Carlo zone-count sweep (the paper's Fig. 4).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crate::bail;
+use crate::error::{Context, Result};
+use endoloc_eval::{BoxColumn, HtmlReport, PlotConfig, plot_error_boxes};
+use endoloc_geometry::Status;
+use endoloc_net::ZoneClassifier;
+use serde::{Deserialize, Serialize};
+
+use crate::progress::Progress;
+use crate::note;
+use super::common::{
+    self, Data, DataArgs, FeatureCache, TrainSpec, ZoneChoice, ensure_map, ensure_model,
+    pose_error, predict_zones, run_endoloc,
+};
+
+/// Sweep the number of uniform zones: for every count from --from to --to (step --step),
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ZoneSweepJob {
+    /// Where the data is.
+    pub data: DataArgs,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Smallest zone count.
+    pub from: usize,
+    /// Largest zone count.
+    pub to: usize,
+    /// Step between zone counts.
+    pub step: usize,
+    /// Runs (training seeds 0, 1, …) per zone count.
+    pub runs: usize,
+    /// Training epochs per run (the `fast` schedule with fewer epochs, to fit a night).
+    pub epochs: usize,
+    /// SURF threshold of the maps; test frames are described at twice it and retried at it
+    pub threshold: f32,
+    /// Zones tried per frame (1 = the paper's rule).
+    pub candidate_zones: usize,
+    /// Keep each run's model folder (weights, descriptors) instead of deleting it once the
+    pub keep_models: bool,
+    /// Use an output folder that holds something else.
+    pub force: bool,
+}
+
+impl Default for ZoneSweepJob {
+    fn default() -> Self {
+        ZoneSweepJob {
+            data: Default::default(),
+            out: "experiments/zones".into(),
+            from: 10,
+            to: 170,
+            step: 10,
+            runs: 10,
+            epochs: 30,
+            threshold: endoloc_localize::DEFAULT_MAP_THRESHOLD,
+            candidate_zones: 3,
+            keep_models: false,
+            force: false,
+        }
+    }
+}
+
+/// One finished run.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct RunRow {
+    zones: usize,
+    run: usize,
+    seed: u64,
+    frames: usize,
+    refined: usize,
+    localized: usize,
+    mean_position_mm: f64,
+    median_position_mm: f64,
+    mean_orientation_deg: f64,
+    median_orientation_deg: f64,
+    seconds: f64,
+}
+
+const RESULTS: &str = "results.csv";
+
+fn read_results(path: &Path) -> Result<Vec<RunRow>> {
+    if !path.is_file() {
+        return Ok(Vec::new());
+    }
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate().skip(1) {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let row = parse_row(line)
+            .with_context(|| format!("{} line {}: {line:?}", path.display(), i + 1))?;
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+const HEADER: &str = "zones,run,seed,frames,refined,localized,mean_position_mm,median_position_mm,mean_orientation_deg,median_orientation_deg,seconds";
+
+fn parse_row(line: &str) -> Result<RunRow> {
+    let v: Vec<&str> = line.split(',').map(str::trim).collect();
+    if v.len() != 11 {
+        bail!("expected 11 comma-separated values, found {}", v.len());
+    }
+    let u = |i: usize| -> Result<usize> {
+        v[i].parse()
+            .with_context(|| format!("column {}: {:?} is not a count", i + 1, v[i]))
+    };
+    let f = |i: usize| -> Result<f64> {
+        v[i].parse()
+            .with_context(|| format!("column {}: {:?} is not a number", i + 1, v[i]))
+    };
+    Ok(RunRow {
+        zones: u(0)?,
+        run: u(1)?,
+        seed: u(2)? as u64,
+        frames: u(3)?,
+        refined: u(4)?,
+        localized: u(5)?,
+        mean_position_mm: f(6)?,
+        median_position_mm: f(7)?,
+        mean_orientation_deg: f(8)?,
+        median_orientation_deg: f(9)?,
+        seconds: f(10)?,
+    })
+}
+
+fn format_results(rows: &[RunRow]) -> String {
+    let mut s = format!("{HEADER}\n");
+    for r in rows {
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.1}\n",
+            r.zones,
+            r.run,
+            r.seed,
+            r.frames,
+            r.refined,
+            r.localized,
+            r.mean_position_mm,
+            r.median_position_mm,
+            r.mean_orientation_deg,
+            r.median_orientation_deg,
+            r.seconds
+        ));
+    }
+    s
+}
+
+impl ZoneSweepJob {
+    /// Runs the experiment.
+    ///
+    /// # Errors
+    /// Bad inputs, a failed stage, or an output folder that holds something else.
+    pub fn run(&self, progress: &dyn Progress) -> Result<()> {
+        let args = self;
+        if args.step == 0 || args.from == 0 || args.from > args.to || args.runs == 0 {
+            bail!(
+                "--from {} --to {} --step {} --runs {}: need 0 < from ≤ to, step > 0, runs > 0",
+                args.from,
+                args.to,
+                args.step,
+                args.runs
+            );
+        }
+        common::prepare_out(&args.out, RESULTS, args.force)?;
+        let data = Data::from_args(&args.data)?;
+        let results_path = args.out.join(RESULTS);
+        let mut rows = read_results(&results_path)?;
+        let counts: Vec<usize> = (args.from..=args.to).step_by(args.step).collect();
+        let total = counts.len() * args.runs;
+        let mut features: Option<FeatureCache> = None;
+        let t_start = Instant::now();
+        let mut done_here = 0usize;
+        for &n in &counts {
+            let run_dirs: Vec<PathBuf> = (0..args.runs)
+                .map(|r| args.out.join(format!("models/z{n:03}/run{r:02}")))
+                .collect();
+            for (r, dir) in run_dirs.iter().enumerate() {
+                if rows.iter().any(|x| x.zones == n && x.run == r) {
+                    continue;
+                }
+                let finished = rows.len();
+                note!(progress, 
+                    "\n=== run {}/{}: {n} zones, seed {r}{}",
+                    finished + 1,
+                    total,
+                    eta(t_start, done_here, total - finished)
+                );
+                let t = Instant::now();
+                let spec = TrainSpec {
+                    zones: n.to_string(),
+                    epochs: Some(args.epochs),
+                    seed: r as u64,
+                };
+                ensure_model(dir, &data, &spec, progress)?;
+                ensure_map(dir, &data, args.threshold, &run_dirs, progress)?;
+                let classifier = ZoneClassifier::load(dir)?;
+                let map_surf = endoloc_localize::map_io::load_map(dir)?.config.surf.clone();
+                let cache = FeatureCache::get(&mut features, &data.test, &map_surf, progress)?;
+                let (preds, zone_ms) = predict_zones(&classifier, &data.test, progress)?;
+                drop(classifier);
+                let results = run_endoloc(
+                    dir,
+                    cache,
+                    &preds,
+                    zone_ms,
+                    ZoneChoice::PerFrame,
+                    args.candidate_zones,
+ progress,
+)?;
+                let mut pos = Vec::new();
+                let mut rot = Vec::new();
+                for (i, res) in results.iter().enumerate() {
+                    if let Some(p) = res.t_wc {
+                        let (dp, dr) = pose_error(&p, &data.test.poses[i].pose);
+                        pos.push(dp);
+                        rot.push(dr);
+                    }
+                }
+                let stats = |v: &mut Vec<f64>| -> (f64, f64) {
+                    if v.is_empty() {
+                        return (f64::NAN, f64::NAN);
+                    }
+                    v.sort_by(f64::total_cmp);
+                    (v.iter().sum::<f64>() / v.len() as f64, v[v.len() / 2])
+                };
+                let (mp, dp) = stats(&mut pos);
+                let (mr, dr) = stats(&mut rot);
+                let row = RunRow {
+                    zones: n,
+                    run: r,
+                    seed: r as u64,
+                    frames: results.len(),
+                    refined: results
+                        .iter()
+                        .filter(|x| x.status == Status::Refined)
+                        .count(),
+                    localized: pos.len(),
+                    mean_position_mm: mp,
+                    median_position_mm: dp,
+                    mean_orientation_deg: mr,
+                    median_orientation_deg: dr,
+                    seconds: t.elapsed().as_secs_f64(),
+                };
+                note!(progress, 
+                    "zones {n:>3} run {r:>2}: mean {mp:.2} mm / {mr:.2}°, median {dp:.2} mm / {dr:.2}°, refined {:.1} %, {:.0} s",
+                    100.0 * row.refined as f64 / row.frames.max(1) as f64,
+                    row.seconds
+                );
+                rows.push(row);
+                rows.sort_by_key(|x| (x.zones, x.run));
+                common::write_text(&results_path, &format_results(&rows))?;
+                done_here += 1;
+                if !args.keep_models {
+                    prune_model(dir)?;
+                }
+            }
+        }
+        write_outputs(args, &rows, progress)
+    }
+}
+
+/// Deletes a recorded run's weights, descriptors and exports, keeping its zone table and map
+/// (for the next runs with the same count).
+fn prune_model(dir: &Path) -> Result<()> {
+    for f in ["weights.safetensors", "database.bin", "checkpoint"] {
+        let p = dir.join(f);
+        if p.is_file() {
+            std::fs::remove_file(&p).with_context(|| format!("removing {}", p.display()))?;
+        } else if p.is_dir() {
+            std::fs::remove_dir_all(&p).with_context(|| format!("removing {}", p.display()))?;
+        }
+    }
+    for d in ["map_ply", "map_colmap"] {
+        let p = dir.join(d);
+        if p.is_dir() {
+            std::fs::remove_dir_all(&p).with_context(|| format!("removing {}", p.display()))?;
+        }
+    }
+    Ok(())
+}
+
+fn eta(start: Instant, done: usize, left: usize) -> String {
+    if done == 0 {
+        return String::new();
+    }
+    let per = start.elapsed().as_secs_f64() / done as f64;
+    let s = per * left as f64;
+    format!(" (about {:.0} min left)", s / 60.0)
+}
+
+fn write_outputs(args: &ZoneSweepJob, rows: &[RunRow], progress: &dyn Progress) -> Result<()> {
+    let mut by_count: BTreeMap<usize, Vec<&RunRow>> = BTreeMap::new();
+    for r in rows {
+        by_count.entry(r.zones).or_default().push(r);
+    }
+    let columns: Vec<BoxColumn> = by_count
+        .iter()
+        .map(|(&n, rs)| BoxColumn {
+            x: n as f64,
+            position_mm: rs.iter().map(|r| r.mean_position_mm).collect(),
+            orientation_deg: rs.iter().map(|r| r.mean_orientation_deg).collect(),
+        })
+        .collect();
+    let png = args.out.join("zones.png");
+    plot_error_boxes(&columns, "number of zones", &png, &PlotConfig::default())?;
+    let med = |mut v: Vec<f64>| -> f64 {
+        v.retain(|x| x.is_finite());
+        if v.is_empty() {
+            return f64::NAN;
+        }
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let header = [
+        "zones",
+        "runs",
+        "median of run means, pos (mm)",
+        "median of run means, rot (°)",
+        "best run pos (mm)",
+        "refined (%)",
+        "s / run",
+    ];
+    let mut table = Vec::new();
+    for (&n, rs) in &by_count {
+        let pos: Vec<f64> = rs.iter().map(|r| r.mean_position_mm).collect();
+        let best = pos
+            .iter()
+            .copied()
+            .filter(|x| x.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        let refined: f64 = rs
+            .iter()
+            .map(|r| r.refined as f64 / r.frames.max(1) as f64)
+            .sum::<f64>()
+            / rs.len() as f64;
+        table.push(vec![
+            n.to_string(),
+            rs.len().to_string(),
+            format!("{:.2}", med(pos)),
+            format!(
+                "{:.2}",
+                med(rs.iter().map(|r| r.mean_orientation_deg).collect())
+            ),
+            format!("{best:.2}"),
+            format!("{:.1}", 100.0 * refined),
+            format!(
+                "{:.0}",
+                rs.iter().map(|r| r.seconds).sum::<f64>() / rs.len() as f64
+            ),
+        ]);
+    }
+    let best = by_count
+        .iter()
+        .map(|(&n, rs)| (n, med(rs.iter().map(|r| r.mean_position_mm).collect())))
+        .filter(|x| x.1.is_finite())
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    let mut md = format!(
+        "# Zone-count sweep (the paper's Fig. 4)\n\nDataset `{}`, {} runs per count, {} epochs \
+         per training, {} candidate zone(s). Each box: the mean errors of the runs.\n\n| {} |\n|{}\n",
+        args.data.data.display(),
+        args.runs,
+        args.epochs,
+        args.candidate_zones,
+        header.join(" | "),
+        "---|".repeat(header.len())
+    );
+    for row in &table {
+        md.push_str(&format!("| {} |\n", row.join(" | ")));
+    }
+    if let Some((n, e)) = best {
+        md.push_str(&format!(
+            "\nBest zone count: {n} (median of run means {e:.2} mm).\n"
+        ));
+    }
+    md.push_str("\n![errors against the zone count](zones.png)\n");
+    common::write_text(&args.out.join("zones.md"), &md)?;
+    let mut html = HtmlReport::new("endoloc — zone-count sweep");
+    html.push(endoloc_eval::Block::Paragraph(format!(
+        "Dataset {}, {} runs per count (training seeds 0…{}), {} epochs per training, {} \
+         candidate zone(s). Each box shows the runs' mean errors.",
+        args.data.data.display(),
+        args.runs,
+        args.runs - 1,
+        args.epochs,
+        args.candidate_zones
+    )))
+    .push(endoloc_eval::Block::Table {
+        header: header.iter().map(|s| s.to_string()).collect(),
+        rows: table,
+    });
+    if let Some((n, e)) = best {
+        html.push(endoloc_eval::Block::Paragraph(format!(
+            "Best zone count: {n} (median of run means {e:.2} mm)."
+        )));
+    }
+    if let Some(b) = common::image_block(&png, "Mean errors of the runs against the zone count", progress) {
+        html.push(b);
+    }
+    common::write_text(&args.out.join("report.html"), &html.render())?;
+    note!(progress, "\n{}", md.lines().skip(4).collect::<Vec<_>>().join("\n"));
+    note!(progress, 
+        "wrote     {}/results.csv, zones.md, zones.png, report.html",
+        args.out.display()
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn results_round_trip_and_bad_lines_name_the_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let rows = vec![RunRow {
+            zones: 10,
+            run: 1,
+            seed: 1,
+            frames: 100,
+            refined: 90,
+            localized: 100,
+            mean_position_mm: 2.5,
+            median_position_mm: 1.25,
+            mean_orientation_deg: 3.0,
+            median_orientation_deg: 2.0,
+            seconds: 61.0,
+        }];
+        let p = dir.path().join(RESULTS);
+        std::fs::write(&p, format_results(&rows)).unwrap();
+        let back = read_results(&p).unwrap();
+        assert_eq!(back.len(), 1);
+        assert_eq!((back[0].zones, back[0].run, back[0].refined), (10, 1, 90));
+        assert!((back[0].mean_position_mm - 2.5).abs() < 1e-9);
+        std::fs::write(&p, format!("{HEADER}\n10,1,1,100\n")).unwrap();
+        let e = format!("{:#}", read_results(&p).unwrap_err());
+        assert!(e.contains("line 2") && e.contains("expected 11"), "{e}");
+    }
+}

@@ -1,0 +1,453 @@
+//! `RunJob` and `DemoJob`: the whole chain — simulate (or an existing dataset), train, map,
+//! localize, evaluate — composed from the stage jobs.
+
+use std::fmt::Display;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::bail;
+use crate::error::{Context, Result};
+use crate::output::{create_dir, replace_folder};
+use crate::progress::Progress;
+use crate::{EvalJob, LocalizeJob, MapJob, SimulateJob, TrainJob};
+
+/// The whole chain from one TOML file (`endoloc run --config experiment.toml`): every table is
+/// the stage's own job, with the same fields and defaults as its command. Paths between the
+/// stages (`data`, `out`, `model`, `seq`) are filled in by the run.
+///
+/// ```toml
+/// out = "experiments/paper50"   # required
+/// data = "data/paper"           # an existing dataset, or a [simulate] table
+/// [simulate]
+/// preset = "paper"
+/// [train]
+/// zones = "50"
+/// pretrained = "builtin-joint"
+/// epochs = 0
+/// [map]
+/// threshold = 25.0
+/// [localize]
+/// live = true
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunJob {
+    /// Output folder: `data/` (when simulated), `model/`, `run/`, `run/eval/`,
+    /// `experiment.toml` (a copy of the configuration) and `timings.csv`.
+    pub out: PathBuf,
+    /// An existing dataset (exactly one of `data` and `simulate`).
+    pub data: Option<PathBuf>,
+    /// Simulate the dataset first.
+    pub simulate: Option<SimulateJob>,
+    /// The training stage.
+    #[serde(default)]
+    pub train: TrainJob,
+    /// The map stage.
+    #[serde(default)]
+    pub map: MapJob,
+    /// The localization stage (of the dataset's `test` sequence).
+    #[serde(default)]
+    pub localize: LocalizeJob,
+    /// The evaluation stage.
+    #[serde(default)]
+    pub eval: EvalJob,
+}
+
+/// Wall time of each stage of a chain, seconds.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Timings {
+    /// `(stage, seconds)` in the order run.
+    pub stages: Vec<(String, f64)>,
+}
+
+impl Timings {
+    /// Runs `f` as stage `name`, noting its start (`== name: command`) and its report.
+    fn stage<R: Display>(
+        &mut self,
+        progress: &dyn Progress,
+        name: &str,
+        command: String,
+        f: impl FnOnce() -> Result<R>,
+    ) -> Result<R> {
+        progress.note(&format!("\n== {name}: endoloc {command}"));
+        let t = Instant::now();
+        let report = f()?;
+        progress.note(&report.to_string());
+        self.stages
+            .push((name.to_string(), t.elapsed().as_secs_f64()));
+        Ok(report)
+    }
+
+    /// Total seconds.
+    pub fn total(&self) -> f64 {
+        self.stages.iter().map(|s| s.1).sum()
+    }
+
+    /// `stage,seconds` lines with a header and a total.
+    pub fn csv(&self) -> String {
+        let mut csv = String::from("stage,seconds\n");
+        for (name, secs) in &self.stages {
+            csv.push_str(&format!("{name},{secs:.2}\n"));
+        }
+        csv.push_str(&format!("total,{:.2}\n", self.total()));
+        csv
+    }
+}
+
+impl std::fmt::Display for Timings {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "stage       wall s")?;
+        for (name, secs) in &self.stages {
+            writeln!(f, "{name:<10} {secs:>7.1}")?;
+        }
+        write!(f, "{:<10} {:>7.1}", "total", self.total())
+    }
+}
+
+fn show(p: &Path) -> String {
+    p.display().to_string()
+}
+
+impl RunJob {
+    /// Reads a run configuration.
+    ///
+    /// # Errors
+    /// An unreadable file, or TOML that does not describe a run (unknown keys are named).
+    pub fn from_toml(text: &str) -> Result<Self> {
+        let job: RunJob = toml::from_str(text)?;
+        if job.data.is_some() == job.simulate.is_some() {
+            bail!("give exactly one of `data = \"DATASET\"` or a [simulate] table");
+        }
+        // Settings that cannot work are refused before any stage runs.
+        job.train.train_config()?;
+        Ok(job)
+    }
+
+    /// Runs every stage; `force` replaces an existing output folder. `config_text` is copied
+    /// to `OUT/experiment.toml`.
+    ///
+    /// # Errors
+    /// An existing output folder without `force`, or the first stage that fails.
+    pub fn run(&self, config_text: &str, force: bool, progress: &dyn Progress) -> Result<Timings> {
+        crate::output::refuse_existing(&self.out, force, " (the results of this run)")?;
+        create_dir(&self.out)?;
+        let copy = self.out.join("experiment.toml");
+        endoloc_data::write_atomic(&copy, config_text.as_bytes())
+            .with_context(|| format!("writing {}", copy.display()))?;
+        let mut t = Timings::default();
+        let data = match (&self.data, &self.simulate) {
+            (Some(d), _) => d.clone(),
+            (None, Some(sim)) => {
+                let job = SimulateJob {
+                    out: self.out.join("data"),
+                    force,
+                    ..sim.clone()
+                };
+                t.stage(progress, "simulate", job.command_line(), || job.run(progress))?;
+                job.out
+            }
+            (None, None) => bail!("give exactly one of `data` or a [simulate] table"),
+        };
+        let model = self.out.join("model");
+        let train = TrainJob {
+            data: data.clone(),
+            out: model.clone(),
+            force,
+            ..self.train.clone()
+        };
+        t.stage(progress, "train", train.command_line(), || train.run(progress))?;
+        let map = MapJob {
+            model: model.clone(),
+            data: data.clone(),
+            force,
+            ..self.map.clone()
+        };
+        t.stage(progress, "map", map.command_line(), || map.run(progress))?;
+        let test = data.join("test");
+        let localize = LocalizeJob {
+            model: Some(model),
+            seq: test.clone(),
+            out: self.out.join("run"),
+            force,
+            ..self.localize.clone()
+        };
+        t.stage(progress, "localize", localize.command_line(), || {
+            localize.run(progress)
+        })?;
+        let eval = EvalJob {
+            gt: test.join("poses.txt"),
+            est: self.out.join("run/trajectory.txt"),
+            frames: Some(self.out.join("run/frames.csv")),
+            out: self.out.join("run/eval"),
+            force,
+            ..self.eval.clone()
+        };
+        t.stage(progress, "eval", eval.command_line(), || eval.run(progress))?;
+        let path = self.out.join("timings.csv");
+        endoloc_data::write_atomic(&path, t.csv().as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+        Ok(t)
+    }
+}
+
+/// The whole method on the built-in colon, from nothing to a report: the `small` simulated
+/// dataset, the Siamese zone classifier (a short schedule), the per-zone maps, live
+/// localization of the test pass and its evaluation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DemoJob {
+    /// Output folder: `data/`, `model/`, `run/`, `run/eval/`.
+    pub out: PathBuf,
+    /// Uniform zones along the training pass.
+    pub zones: usize,
+    /// Training epochs (a short schedule).
+    pub epochs: usize,
+    /// SURF threshold of the map.
+    pub threshold: f32,
+    /// Master seed of the simulation and the training.
+    pub seed: u64,
+    /// Replace an existing output folder.
+    pub force: bool,
+}
+
+impl Default for DemoJob {
+    fn default() -> Self {
+        DemoJob {
+            out: "endoloc-demo".into(),
+            zones: 20,
+            epochs: 40,
+            threshold: MapJob::default().threshold,
+            seed: 0,
+            force: false,
+        }
+    }
+}
+
+/// What the demo did: each stage's time and where the report is.
+#[derive(Debug, Clone)]
+pub struct DemoReport {
+    /// Wall time per stage.
+    pub timings: Timings,
+    /// The evaluation report (`run/eval/report.md`).
+    pub report: PathBuf,
+}
+
+impl std::fmt::Display for DemoReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "demo done in {:.0} s: report {}",
+            self.timings.total(),
+            self.report.display()
+        )
+    }
+}
+
+impl DemoJob {
+    /// Runs the demo.
+    ///
+    /// # Errors
+    /// An existing output folder without `force`, or the first stage that fails.
+    pub fn run(&self, progress: &dyn Progress) -> Result<DemoReport> {
+        replace_folder(&self.out, self.force, " (or choose another output folder)")?;
+        create_dir(&self.out)?;
+        let p = |rel: &str| self.out.join(rel);
+        let mut t = Timings::default();
+        let sim = SimulateJob {
+            preset: "small".into(),
+            seed: self.seed,
+            out: p("data"),
+            ..SimulateJob::default()
+        };
+        t.stage(progress, "1/5 simulate", sim.command_line(), || {
+            sim.run(progress)
+        })?;
+        let train = TrainJob {
+            data: p("data"),
+            zones: self.zones.to_string(),
+            out: p("model"),
+            schedule: "fast".into(),
+            epochs: Some(self.epochs),
+            seed: self.seed,
+            ..TrainJob::default()
+        };
+        t.stage(progress, "2/5 train", train.command_line(), || {
+            train.run(progress)
+        })?;
+        let map = MapJob {
+            model: p("model"),
+            data: p("data"),
+            threshold: self.threshold,
+            ..MapJob::default()
+        };
+        t.stage(progress, "3/5 map", map.command_line(), || map.run(progress))?;
+        let localize = LocalizeJob {
+            model: Some(p("model")),
+            seq: p("data/test"),
+            out: p("run"),
+            live: true,
+            ..LocalizeJob::default()
+        };
+        t.stage(progress, "4/5 localize", localize.command_line(), || {
+            localize.run(progress)
+        })?;
+        let eval = EvalJob {
+            gt: p("data/test/poses.txt"),
+            est: p("run/trajectory.txt"),
+            frames: Some(p("run/frames.csv")),
+            out: p("run/eval"),
+            ..EvalJob::default()
+        };
+        t.stage(progress, "5/5 eval", eval.command_line(), || eval.run(progress))?;
+        Ok(DemoReport {
+            timings: t,
+            report: p("run/eval/report.md"),
+        })
+    }
+}
+
+/// Builds the command line a user would type for a job (for display only: nothing parses it).
+#[derive(Debug, Clone)]
+pub struct CommandLine(String);
+
+impl CommandLine {
+    /// `endoloc <command>`, without the `endoloc`.
+    pub fn new(command: &str) -> Self {
+        CommandLine(command.to_string())
+    }
+    /// `--name value`.
+    pub fn arg(mut self, name: &str, value: impl Display) -> Self {
+        self.0.push_str(&format!(" --{name} {value}"));
+        self
+    }
+    /// `--name PATH`.
+    pub fn path(self, name: &str, value: &Path) -> Self {
+        self.arg(name, show(value))
+    }
+    /// `--name value` when `value` differs from `default`.
+    pub fn arg_if<T: Display + PartialEq>(self, name: &str, value: &T, default: &T) -> Self {
+        if value != default {
+            self.arg(name, value)
+        } else {
+            self
+        }
+    }
+    /// `--name value` when present.
+    pub fn opt<T: Display>(self, name: &str, value: Option<T>) -> Self {
+        match value {
+            Some(v) => self.arg(name, v),
+            None => self,
+        }
+    }
+    /// `--name` when `on`.
+    pub fn flag(mut self, name: &str, on: bool) -> Self {
+        if on {
+            self.0.push_str(&format!(" --{name}"));
+        }
+        self
+    }
+    /// The command line.
+    pub fn finish(self) -> String {
+        self.0
+    }
+}
+
+impl TrainJob {
+    /// The `endoloc train` command line of this job (the settings that differ from the
+    /// defaults).
+    pub fn command_line(&self) -> String {
+        let d = TrainJob::default();
+        CommandLine::new("train")
+            .path("data", &self.data)
+            .arg_if("seq", &self.seq, &d.seq)
+            .arg_if("zones", &self.zones, &d.zones)
+            .path("out", &self.out)
+            .arg_if("schedule", &self.schedule, &d.schedule)
+            .opt("epochs", self.epochs)
+            .arg_if("seed", &self.seed, &d.seed)
+            .opt("pairs", self.pairs.as_deref())
+            .opt("pretrained", self.pretrained.as_deref().map(show))
+            .flag("resume", self.resume)
+            .flag("force", self.force)
+            .finish()
+    }
+}
+
+impl MapJob {
+    /// The `endoloc map` command line of this job.
+    pub fn command_line(&self) -> String {
+        let d = MapJob::default();
+        CommandLine::new("map")
+            .path("model", &self.model)
+            .path("data", &self.data)
+            .arg_if("seq", &self.seq, &d.seq)
+            .arg_if("images-per-zone", &self.images_per_zone, &d.images_per_zone)
+            .arg("threshold", self.threshold)
+            .flag("force", self.force)
+            .finish()
+    }
+}
+
+impl LocalizeJob {
+    /// The `endoloc localize` command line of this job (the settings that differ from the
+    /// defaults).
+    pub fn command_line(&self) -> String {
+        let d = LocalizeJob::default();
+        CommandLine::new("localize")
+            .opt("model", self.model.as_deref().map(show))
+            .path("seq", &self.seq)
+            .path("out", &self.out)
+            .flag("live", self.live)
+            .arg_if("candidate-zones", &self.candidate_zones, &d.candidate_zones)
+            .arg_if("neighbours", &self.neighbours, &d.neighbours)
+            .flag("force", self.force)
+            .finish()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn run_tables_are_the_stage_jobs() {
+        let job = RunJob::from_toml("out = \"o\"\ndata = \"d\"\n[train]\npairs = \"track\"\n")
+            .unwrap();
+        assert_eq!(job.train.pairs.as_deref(), Some("track"));
+        let job = RunJob::from_toml("out = \"o\"\ndata = \"d\"\n").unwrap();
+        assert_eq!(job.train, TrainJob::default());
+        assert_eq!(job.map, MapJob::default());
+        assert_eq!(job.localize, LocalizeJob::default());
+    }
+
+    #[test]
+    fn bad_runs_are_refused_before_any_stage() {
+        let e = RunJob::from_toml("out = \"o\"\ndata = \"d\"\n[train]\npairs = \"frames\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("frames") && e.contains("track"), "{e}");
+        let e = RunJob::from_toml("out = \"o\"\n").unwrap_err().to_string();
+        assert!(e.contains("exactly one"), "{e}");
+        let e = RunJob::from_toml("out = \"o\"\ndata = \"d\"\n[map]\nthreshhold = 3.0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("threshhold"), "{e}");
+    }
+
+    #[test]
+    fn train_command_lines_show_epochs_only_when_set() {
+        let job = RunJob::from_toml("out = \"o\"\ndata = \"d\"\n").unwrap();
+        assert!(!job.train.command_line().contains("--epochs"));
+        let job = RunJob::from_toml(
+            "out = \"o\"\ndata = \"d\"\n[train]\nepochs = 0\npretrained = \"builtin-joint\"\n",
+        )
+        .unwrap();
+        let line = job.train.command_line();
+        assert!(
+            line.contains("--epochs 0") && line.contains("--pretrained builtin-joint"),
+            "{line}"
+        );
+    }
+}
