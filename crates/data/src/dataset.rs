@@ -1,4 +1,4 @@
-//! The endoloc dataset, format version 1 (DESIGN.md):
+//! The endoloc dataset, format version 1 (docs/CONVENTIONS.md):
 //!
 //! ```text
 //! DATASET/

@@ -1,4 +1,4 @@
-//! endoloc's data layer: the dataset format v1 (`DESIGN.md`), trajectories, anatomy labels,
+//! endoloc's data layer: the dataset format v1 (`docs/CONVENTIONS.md`), trajectories, anatomy labels,
 //! and import of colon surface meshes and mid-line paths.
 //!
 //! Conventions: lengths in millimetres, poses `T_wc` (camera-to-world), timestamps in seconds.

@@ -1,7 +1,7 @@
 //! TUM trajectory files: one line `timestamp tx ty tz qx qy qz qw` per pose, `#` comments.
 //!
 //! Poses are `T_wc` (camera-to-world), translations in millimetres, timestamps in seconds,
-//! quaternions Hamilton `qx qy qz qw` (DESIGN.md). Files written here are read unchanged by
+//! quaternions Hamilton `qx qy qz qw` (docs/CONVENTIONS.md). Files written here are read unchanged by
 //! other TUM tools (e.g. `evo`).
 
 use crate::DataError;

@@ -5,7 +5,7 @@
 //! - `trans_part` (evo's default): `‖t_P − t_Q‖`, mm — the same as
 //!   [`endoloc_geometry::position_error_mm`];
 //! - `angle_deg` / `angle_rad`: the rotation angle of `R_Pᵀ R_Q` — the same as
-//!   [`endoloc_geometry::orientation_error_deg`] (DESIGN.md's rotation error);
+//!   [`endoloc_geometry::orientation_error_deg`] (docs/CONVENTIONS.md's rotation error);
 //! - `rot_part`: `‖R_Pᵀ R_Q − I‖_F`, dimensionless (the *chordal* distance, equal to
 //!   `2√2·sin(θ/2)`, not an angle);
 //! - `full`: `‖E − I‖_F` over the 4×4 matrix, mixing mm and the chordal term.

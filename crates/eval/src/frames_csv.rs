@@ -1,4 +1,4 @@
-//! `frames.csv`: one row per test frame of a localization run (DESIGN.md, results on disk).
+//! `frames.csv`: one row per test frame of a localization run (docs/CONVENTIONS.md, results on disk).
 //!
 //! The header is exactly [`FRAMES_CSV_HEADER`]:
 //!

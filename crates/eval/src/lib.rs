@@ -9,7 +9,7 @@
 //! association by timestamp ([`association`]), APE ([`ape`]), RPE ([`rpe`]), Umeyama
 //! alignment ([`align`]) and its statistics ([`stats`]).
 //!
-//! Conventions (DESIGN.md): poses `T_wc` camera-to-world, millimetres, timestamps in seconds;
+//! Conventions (docs/CONVENTIONS.md): poses `T_wc` camera-to-world, millimetres, timestamps in seconds;
 //! position error `‖t_est − t_gt‖` mm, orientation error the geodesic angle of
 //! `R_estᵀ R_gt` in degrees.
 

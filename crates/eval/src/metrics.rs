@@ -12,7 +12,7 @@
 //!   and `zone_within_one` (|predicted − true| ≤ 1);
 //! - `per_zone`: a table keyed by the true zone when known, else by the predicted zone.
 //!
-//! The frame index of a ground-truth pose is its line order in the file (DESIGN.md).
+//! The frame index of a ground-truth pose is its line order in the file (docs/CONVENTIONS.md).
 
 use std::collections::BTreeMap;
 
@@ -175,7 +175,7 @@ pub struct AlignmentSummary {
     pub scale: f64,
 }
 
-/// The content of `metrics.json` (DESIGN.md: results on disk).
+/// The content of `metrics.json` (docs/CONVENTIONS.md: results on disk).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
     /// Layout identifier, [`METRICS_FORMAT`].

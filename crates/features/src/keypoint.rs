@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 /// A SURF keypoint.
 ///
 /// Pixel coordinates have their origin at the centre of the top-left pixel, x to the right,
-/// y down (`DESIGN.md`).
+/// y down (`docs/CONVENTIONS.md`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Keypoint {
     /// Column of the blob centre, pixels (sub-pixel, interpolated).

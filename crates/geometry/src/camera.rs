@@ -1,6 +1,6 @@
 //! Pinhole camera with optional lens distortion.
 //!
-//! Conventions (see `DESIGN.md`): OpenCV camera axes (x right, y down, z forward along the
+//! Conventions (see `docs/CONVENTIONS.md`): OpenCV camera axes (x right, y down, z forward along the
 //! optical axis); pixel coordinates with the origin at the centre of the top-left pixel, x to
 //! the right, y down; lengths in millimetres.
 //!

@@ -1,6 +1,6 @@
 //! Geometry core of endoloc.
 //!
-//! Conventions used by every endoloc crate (`DESIGN.md`): lengths in millimetres; poses are
+//! Conventions used by every endoloc crate (`docs/CONVENTIONS.md`): lengths in millimetres; poses are
 //! `T_wc` (camera-to-world); OpenCV camera axes (x right, y down, z forward); pixel origin at
 //! the centre of the top-left pixel.
 

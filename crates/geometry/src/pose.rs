@@ -13,7 +13,7 @@ pub fn pose_from_parts(t_wc: Vector3<f64>, r_wc: UnitQuaternion<f64>) -> Pose {
 }
 
 /// Returns the quaternion with its sign chosen so that `w ≥ 0` (the canonical sign used before
-/// any averaging, median or file output; DESIGN.md).
+/// any averaging, median or file output; docs/CONVENTIONS.md).
 pub fn canonical_quaternion(q: UnitQuaternion<f64>) -> UnitQuaternion<f64> {
     if q.w < 0.0 {
         UnitQuaternion::new_unchecked(-q.into_inner())

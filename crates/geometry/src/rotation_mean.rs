@@ -7,7 +7,7 @@
 //!   `Rᵀ R_i`), found by Weiszfeld iterations on SO(3) (Hartley, Aftab & Trumpf, "L1 rotation
 //!   averaging using the Weiszfeld algorithm", CVPR 2011), started from the medoid of the
 //!   inputs. Robust: it stays with the majority when up to ~40 % of the inputs are arbitrary.
-//! - [`zone_median_pose`]: what the pipeline uses as a zone's initial pose (`DESIGN.md`):
+//! - [`zone_median_pose`]: what the pipeline uses as a zone's initial pose (`docs/CONVENTIONS.md`):
 //!   **component-wise median of the positions** and **geodesic L1 median of the rotations**.
 //!
 //! Quaternions are sign-canonicalised (`qw ≥ 0`) on input and on output; the computations

@@ -26,12 +26,12 @@ pub struct AugmentConfig {
     /// `±tilt_deg` degrees, rendered exactly by the homography `K ΔR K⁻¹` (0 disables it).
     /// A second pass through the colon looks along other directions at the same place; a
     /// shift of the image only approximates that near the image centre. Default 28° (with
-    /// `translate` 0.02; 12° before session 10): a test pass gazes up to ~16° (90th
-    /// percentile) away from its nearest training pose. On the simulator's `paper` preset
-    /// (50 zones, no pretraining; test pass / a second pass) the causal track filter gives
-    /// 87.5 / 84.3 % exact against 81.0 / 78.9 % at 12° and the smoothed one 94.7 / 93.8 %
-    /// against 92.3 / 91.9 %; per frame 73.3 / 72.8 % against 70.5 / 72.8 %. 12° had given
-    /// +3 points per frame over no tilt with `translate` 0.08.
+    /// `translate` 0.02): a test pass gazes up to ~16° (90th percentile) away from its
+    /// nearest training pose. On the simulator's `paper` preset (50 zones, no pretraining;
+    /// test pass / a second pass) the causal track filter gives 87.5 / 84.3 % exact at 28°
+    /// against 81.0 / 78.9 % at 12° and the smoothed one 94.7 / 93.8 % against 92.3 / 91.9 %;
+    /// per frame 73.3 / 72.8 % against 70.5 / 72.8 %. 12° gives +3 points per frame over no
+    /// tilt with `translate` 0.08 (`crates/net/BENCHMARKS.md`).
     pub tilt_deg: f32,
     /// Zoom uniform in `1 ± scale` (distance to the wall).
     pub scale: f32,

@@ -14,7 +14,7 @@
 //! `zones.csv`, `database.bin` (descriptors of the training frames), `whitening.bin` (when the
 //! descriptors are whitened, [`whiten`]) and `train_poses.txt`.
 //!
-//! Conventions (`DESIGN.md`): zone indices are 0-based along the training trajectory; poses
+//! Conventions (`docs/CONVENTIONS.md`): zone indices are 0-based along the training trajectory; poses
 //! are `T_wc` in mm.
 
 pub mod augment;

@@ -1,5 +1,5 @@
 //! Zoning of a training sequence: which frames form zone `k` (0-based, increasing along the
-//! training trajectory, `DESIGN.md`).
+//! training trajectory, `docs/CONVENTIONS.md`).
 //!
 //! - **Uniform** ([`ZoneConfig::Uniform`]): `count` zones of equal arc length of the camera path
 //!   ([`UniformBy::ArcLength`], the default) or of equal frame counts ([`UniformBy::Frames`]).

@@ -5,11 +5,13 @@
 //! cargo test --release -p endoloc-net --test regress_paper -- --ignored --nocapture paper_offsetnet
 //! ```
 //!
-//! Environment: `ENDOLOC_REGRESS_DATA` (dataset with `train/` and `test/`, default
-//! `/work/data/paper`), `ENDOLOC_REGRESS_OUT` (where the models are written, default a
-//! temporary folder), `ENDOLOC_REGRESS_ZONE_MODEL` (a zone-classifier model folder whose
-//! nearest training frame is OffsetNet's reference; default `/work/models/paper50`; skipped
-//! if it cannot be loaded), `ENDOLOC_REGRESS_SCHEDULE` (`fast` or `paper`, default `fast`).
+//! Environment: `ENDOLOC_REGRESS_DATA` (dataset with `train/` and `test/`, e.g. the output of
+//! `endoloc simulate --preset paper --out data/paper`; the tests skip with a message when it
+//! is unset), `ENDOLOC_REGRESS_OUT` (where the models are written, default a temporary
+//! folder), `ENDOLOC_REGRESS_ZONE_MODEL` (a zone-classifier model folder, e.g.
+//! `models/paper50`, whose nearest training frame is OffsetNet's reference; skipped when unset
+//! or when it cannot be loaded), `ENDOLOC_REGRESS_SCHEDULE` (`fast` or `paper`, default
+//! `fast`).
 //!
 //! Prints the mean and median position (mm) and orientation (°) errors on the test sequence
 //! and the training time; asserts that each baseline beats predicting the mean training pose.
@@ -25,8 +27,8 @@ use endoloc_net::regress::{
 use std::path::PathBuf;
 use std::time::Instant;
 
-fn env_path(name: &str, default: &str) -> PathBuf {
-    std::env::var_os(name).map_or_else(|| PathBuf::from(default), PathBuf::from)
+fn env_path(name: &str) -> Option<PathBuf> {
+    std::env::var_os(name).map(PathBuf::from)
 }
 
 fn config() -> RegressConfig {
@@ -37,13 +39,22 @@ fn config() -> RegressConfig {
     }
 }
 
-fn open() -> (Sequence, Sequence, Camera) {
-    let ds = Dataset::open(&env_path("ENDOLOC_REGRESS_DATA", "/work/data/paper")).unwrap();
-    (
+/// The dataset named by `ENDOLOC_REGRESS_DATA`, or `None` (with the reason printed) when the
+/// variable is unset.
+fn open() -> Option<(Sequence, Sequence, Camera)> {
+    let Some(dir) = env_path("ENDOLOC_REGRESS_DATA") else {
+        println!(
+            "skipped: set ENDOLOC_REGRESS_DATA to a dataset with train/ and test/ \
+             (e.g. endoloc simulate --preset paper --out data/paper)"
+        );
+        return None;
+    };
+    let ds = Dataset::open(&dir).unwrap();
+    Some((
         ds.sequence("train").unwrap(),
         ds.sequence("test").unwrap(),
         ds.meta.camera,
-    )
+    ))
 }
 
 fn load_training(train: &Sequence, camera: &Camera, cfg: &RegressConfig) -> TrainingSet {
@@ -130,7 +141,9 @@ const HEADER: &str = "| method | mean pos (mm) | median pos (mm) | mean rot (°)
 #[test]
 #[ignore = "trains on a real dataset for minutes"]
 fn paper_posenet() {
-    let (train, test, camera) = open();
+    let Some((train, test, camera)) = open() else {
+        return;
+    };
     let cfg = config();
     let data = load_training(&train, &camera, &cfg);
     let t = Instant::now();
@@ -172,7 +185,9 @@ fn paper_posenet() {
 #[test]
 #[ignore = "trains on a real dataset for minutes"]
 fn paper_offsetnet() {
-    let (train, test, camera) = open();
+    let Some((train, test, camera)) = open() else {
+        return;
+    };
     let cfg = config();
     let data = load_training(&train, &camera, &cfg);
     let t = Instant::now();
@@ -211,29 +226,34 @@ fn paper_offsetnet() {
                 .unwrap_or(0)
         })
         .collect();
-    let zone_model = env_path("ENDOLOC_REGRESS_ZONE_MODEL", "/work/models/paper50");
-    let retrieved: Option<Vec<usize>> = match ZoneClassifier::load(&zone_model) {
-        Ok(clf) => {
-            let mut v = Vec::with_capacity(test.len());
-            let frames: Vec<usize> = (0..test.len()).collect();
-            for chunk in frames.chunks(256) {
-                let imgs: Vec<_> = chunk.iter().map(|&i| test.load_gray(i).unwrap()).collect();
-                v.extend(
-                    clf.classify_batch(&imgs)
-                        .unwrap()
-                        .into_iter()
-                        .map(|p| p.nearest_frame),
-                );
-            }
-            Some(v)
-        }
-        Err(e) => {
-            println!(
-                "zone model {} not usable ({e}): Siamese reference skipped",
-                zone_model.display()
-            );
+    let retrieved: Option<Vec<usize>> = match env_path("ENDOLOC_REGRESS_ZONE_MODEL") {
+        None => {
+            println!("ENDOLOC_REGRESS_ZONE_MODEL unset: Siamese reference skipped");
             None
         }
+        Some(zone_model) => match ZoneClassifier::load(&zone_model) {
+            Ok(clf) => {
+                let mut v = Vec::with_capacity(test.len());
+                let frames: Vec<usize> = (0..test.len()).collect();
+                for chunk in frames.chunks(256) {
+                    let imgs: Vec<_> = chunk.iter().map(|&i| test.load_gray(i).unwrap()).collect();
+                    v.extend(
+                        clf.classify_batch(&imgs)
+                            .unwrap()
+                            .into_iter()
+                            .map(|p| p.nearest_frame),
+                    );
+                }
+                Some(v)
+            }
+            Err(e) => {
+                println!(
+                    "zone model {} not usable ({e}): Siamese reference skipped",
+                    zone_model.display()
+                );
+                None
+            }
+        },
     };
     let run = |refs: &[usize]| -> Vec<Pose> {
         let t = Instant::now();

@@ -5,7 +5,7 @@
 //! ([`colon::from_mesh`], e.g. a CT colon) — along clinical passes anus → caecum
 //! ([`trajectory`]), with a mucosa texture that is homogeneous within an anatomical section
 //! ([`appearance`]) and a light at the scope tip ([`render`]). [`simulate::simulate`] writes an
-//! endoloc dataset (format v1, see `DESIGN.md`).
+//! endoloc dataset (format v1, see `docs/CONVENTIONS.md`).
 //!
 //! Conventions: mm; poses `T_wc`; OpenCV camera axes; pixel origin at the top-left pixel's
 //! centre.

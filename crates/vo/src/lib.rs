@@ -10,7 +10,7 @@
 //!   its first pose with a least-squares scale from the ground truth; the tracked fraction and
 //!   the frames where tracking was lost.
 //!
-//! Conventions (`DESIGN.md`): poses `T_wc` (camera-to-world), OpenCV camera axes, pixel origin
+//! Conventions (`docs/CONVENTIONS.md`): poses `T_wc` (camera-to-world), OpenCV camera axes, pixel origin
 //! at the top-left pixel's centre; VO poses are in VO units (the first baseline of a segment
 //! is one unit), aligned poses in millimetres.
 //!

@@ -1,4 +1,4 @@
-//! Import of public colonoscopy datasets into the endoloc dataset format v1 (`DESIGN.md`:
+//! Import of public colonoscopy datasets into the endoloc dataset format v1 (`docs/CONVENTIONS.md`:
 //! millimetres, `T_wc` camera-to-world, OpenCV camera axes x right / y down / z forward).
 //!
 //! One file per source format, each documenting its conventions and pitfalls:
