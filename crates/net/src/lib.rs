@@ -17,6 +17,8 @@
 //! Conventions (`DESIGN.md`): zone indices are 0-based along the training trajectory; poses
 //! are `T_wc` in mm.
 
+#![warn(missing_docs)]
+
 pub mod augment;
 pub mod backbone;
 mod binfile;
@@ -24,6 +26,7 @@ pub mod classifier;
 pub mod database;
 pub mod device;
 pub mod error;
+mod history;
 pub mod loss;
 pub mod model;
 mod optimise;
@@ -36,6 +39,8 @@ pub mod regress;
 pub mod temporal;
 pub mod track;
 pub mod train;
+mod train_config;
+pub mod view;
 pub mod whiten;
 pub mod zones;
 

@@ -5,7 +5,8 @@
 //! and scored and how its held-out frames are predicted.
 
 use super::io::{self, RegressMethod, RegressModelFile};
-use super::{RegressConfig, RegressEpoch, RegressPhase, RegressProgress};
+use super::config::RegressConfig;
+use super::progress::{RegressEpoch, RegressPhase, RegressProgress};
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
 use crate::optimise::descend;

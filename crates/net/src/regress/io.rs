@@ -11,7 +11,9 @@
 //! Written to `MODEL.partial/` and renamed into place ([`crate::model::publish`]).
 
 use super::normalize::PoseNormalizer;
-use super::{RegressConfig, RegressEpoch, TrainingSet};
+use super::config::RegressConfig;
+use super::data::TrainingSet;
+use super::progress::RegressEpoch;
 use crate::NetError;
 use burn::module::Module;
 use burn_store::{ModuleSnapshot, SafetensorsStore};
