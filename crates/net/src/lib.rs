@@ -2,7 +2,7 @@
 //!
 //! A training sequence is cut into zones ([`zones`]); a Siamese network — two twins sharing
 //! one backbone ([`backbone`]) — is trained with the contrastive loss ([`loss`]) on balanced
-//! pairs of images from the same zone and from different zones ([`pairs`], [`train`]); the
+//! pairs of images from the same zone and from different zones ([`pairs`], [`mod@train`]); the
 //! descriptors of all training images form a database ([`database`]); a test image goes to
 //! the zone of its nearest descriptors ([`classifier`]), optionally smoothed over a video by
 //! an HMM over zones ([`temporal`]) or, finer, over training frames ([`track`]).

@@ -17,10 +17,10 @@
 use crate::NetError;
 use crate::backbone::{BackboneConfig, EmbeddingNet};
 use crate::database::{DescriptorDatabase, ScoreRule};
-use crate::temporal::TemporalConfig;
-use crate::track::TrackConfig;
 use crate::history::EpochRecord;
 pub use crate::history::write_history;
+use crate::temporal::TemporalConfig;
+use crate::track::TrackConfig;
 use crate::train_config::TrainConfig;
 use crate::zones::{ZONES_FILE, ZoneConfig, ZoneTable};
 use burn::tensor::Device;

@@ -1,14 +1,13 @@
 //! Pretraining on several colons at once: one network trained on the passes of every colon
 //! together, its batches drawn from all of them.
 //!
-//! `endoloc pretrain` used to train colon after colon, each from the previous one's weights,
-//! so the last colon's stage could undo what the first ones taught. Here every colon's
-//! training pass and further passes (each frame at the place of its nearest training pose)
-//! go into one image cache; colon `c`'s places are offset by `c ·`
-//! [`COLON_PLACE_STRIDE`](crate::pairs::COLON_PLACE_STRIDE), so track pairs never join
-//! frames of two colons as alike and draw each negative from its partner's own colon, where
-//! the look-alikes are. Zones are each colon's own (offset likewise), for zone pairs and
-//! for the held-out validation.
+//! Training colon after colon, each from the previous one's weights, would let the last
+//! colon's stage undo what the first ones taught. Instead every colon's training pass and
+//! further passes (each frame at the place of its nearest training pose) go into one image
+//! cache; colon `c`'s places are offset by `c ·` [`crate::pairs::COLON_PLACE_STRIDE`], so
+//! track pairs never join frames of two colons as alike and draw each negative from its
+//! partner's own colon, where the look-alikes are. Zones are each colon's own (offset
+//! likewise), for zone pairs and for the held-out validation.
 //!
 //! The output is a folder like a model's, less what only a model of one pass has:
 //! `weights.safetensors` (the start weights for [`crate::train::TrainConfig::pretrained`]),
@@ -17,12 +16,12 @@
 use crate::NetError;
 use crate::model;
 use crate::pairs::COLON_PLACE_STRIDE;
-use crate::view::ViewIntrinsics;
 use crate::plot;
 use crate::train::{
     EpochRecord, ImageCache, Phase, TrainConfig, TrainProgress, TrainTarget, add_passes,
     checkpoint_dir, discard_checkpoint, fit,
 };
+use crate::view::ViewIntrinsics;
 use crate::zones::{Zone, ZoneConfig, ZoneTable};
 use burn::module::Module;
 use endoloc_data::Sequence;

@@ -2,10 +2,10 @@
 //! batches as tensors.
 
 use super::config::RegressConfig;
-use crate::view::{ViewIntrinsics, rotate_view, view_turn};
 use crate::augment::augment;
 use crate::preprocess::{InputSize, standardize};
 use crate::train::ImageCache;
+use crate::view::{ViewIntrinsics, rotate_view, view_turn};
 use burn::tensor::{Device, Tensor, TensorData};
 use nalgebra::UnitQuaternion;
 use rand::{Rng, SeedableRng};

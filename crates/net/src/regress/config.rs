@@ -104,10 +104,11 @@ pub struct RegressConfig {
     /// `scale`, `translate`) are ignored because they would change the pose the image shows.
     pub augment: AugmentConfig,
     /// View augmentation, roll: the query camera turns about its optical axis by an angle
-    /// uniform in `±roll_deg` degrees, image and label alike ([`view`]). 0 disables it.
+    /// uniform in `±roll_deg` degrees, image and label alike ([`crate::view`]). 0 disables it.
     pub roll_deg: f32,
     /// View augmentation, tilt: pitch and yaw each uniform in `±tilt_deg` degrees. Needs the
-    /// training camera ([`TrainingSet::camera`]); skipped with a warning without one.
+    /// training camera ([`TrainingSet::camera`](super::TrainingSet::camera)); skipped with a
+    /// warning without one.
     pub tilt_deg: f32,
     /// OffsetNet: training pairs are (frame i, frame j) with `|i − j| ≤ pair_reach_frames`
     /// along the training trajectory.

@@ -4,8 +4,8 @@
 //! progress reports and the per-epoch history. Each method supplies only how a batch is drawn
 //! and scored and how its held-out frames are predicted.
 
-use super::io::{self, RegressMethod, RegressModelFile};
 use super::config::RegressConfig;
+use super::io::{self, RegressMethod, RegressModelFile};
 use super::progress::{RegressEpoch, RegressPhase, RegressProgress};
 use crate::NetError;
 use crate::backbone::EmbeddingNet;

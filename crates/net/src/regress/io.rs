@@ -10,9 +10,9 @@
 //!
 //! Written to `MODEL.partial/` and renamed into place ([`crate::model::publish`]).
 
-use super::normalize::PoseNormalizer;
 use super::config::RegressConfig;
 use super::data::TrainingSet;
+use super::normalize::PoseNormalizer;
 use super::progress::RegressEpoch;
 use crate::NetError;
 use burn::module::Module;

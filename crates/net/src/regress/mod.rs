@@ -25,7 +25,6 @@
 //! normaliser, the training image size) and `weights.safetensors`, written to `DIR.partial`
 //! and renamed into place.
 
-
 mod batch;
 mod config;
 mod data;
@@ -39,6 +38,8 @@ pub mod offsetnet;
 pub mod posenet;
 mod progress;
 
+/// View turns and their homographies, shared with the zone classifier's augmentation.
+pub use crate::view;
 pub use config::{RegressConfig, RegressSchedule};
 pub use data::TrainingSet;
 pub use fit::RegressNetwork;
@@ -50,5 +51,3 @@ pub use normalize::PoseNormalizer;
 pub use offsetnet::{OffsetNetModel, compose, offset_between, train_offsetnet};
 pub use posenet::{PoseNetModel, train_posenet};
 pub use progress::{RegressEpoch, RegressPhase, RegressProgress};
-/// View turns and their homographies, shared with the zone classifier's augmentation.
-pub use crate::view;

@@ -2,9 +2,9 @@
 //! `regress.toml` record, the network in validation mode and its device, with loading and
 //! saving of the model folder ([`super::io`]). Each method adds its own `predict` methods.
 
-use super::progress::RegressEpoch;
 use super::fit::{RegressNetwork, load_model};
 use super::io::{self, RegressMethod, RegressModelFile};
+use super::progress::RegressEpoch;
 use crate::NetError;
 use burn::tensor::Device;
 use std::path::Path;

@@ -20,20 +20,20 @@
 use super::batch::{
     clean_batch, draw_frames, images_tensor, query_batch, rows_tensor, split_holdout,
 };
-use super::fit::{RegressNetwork, fit, init_backbone};
-use super::io::{RegressMethod, RegressModelFile};
-use super::model::RegressModel;
-use crate::view::rotated_rotation;
 use super::config::RegressConfig;
 use super::data::{TrainingSet, check_frame};
+use super::fit::{RegressNetwork, fit, init_backbone};
 use super::head::{PoseHead, scaled_features, tensor_rows};
+use super::io::{RegressMethod, RegressModelFile};
 use super::loss::posenet_loss;
+use super::model::RegressModel;
 use super::normalize::PoseNormalizer;
 use super::progress::RegressProgress;
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
 use crate::preprocess::network_input;
 use crate::train::ImageCache;
+use crate::view::rotated_rotation;
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 use endoloc_geometry::pose::pose_from_parts;

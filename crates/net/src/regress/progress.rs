@@ -11,7 +11,8 @@ pub enum RegressPhase {
     Validating,
 }
 
-/// A progress report from [`train_posenet`] / [`train_offsetnet`].
+/// A progress report from [`train_posenet`](super::train_posenet) /
+/// [`train_offsetnet`](super::train_offsetnet).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RegressProgress {
     /// Current phase.
@@ -31,7 +32,7 @@ pub struct RegressProgress {
 pub struct RegressEpoch {
     /// 1-based epoch.
     pub epoch: usize,
-    /// Mean loss over the epoch's steps (normalised units, see [`posenet_loss`]).
+    /// Mean loss over the epoch's steps (normalised units, see [`posenet_loss`](super::posenet_loss)).
     pub loss: f32,
     /// Mean position error of the held-out frames, mm (when validated this epoch).
     pub val_position_mm: Option<f64>,

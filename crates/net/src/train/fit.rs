@@ -94,9 +94,10 @@ pub fn fit(
             loss,
             val_accuracy,
         };
-        let (trained, loss, k) = run_epoch(learner, cfg, cache, &sampler, &device, epoch, &mut |done| {
-            progress(&report(done, last_loss, last_val))
-        })?;
+        let (trained, loss, k) =
+            run_epoch(learner, cfg, cache, &sampler, &device, epoch, &mut |done| {
+                progress(&report(done, last_loss, last_val))
+            })?;
         learner = trained;
         steps += k;
         last_loss = Some(loss);

@@ -28,8 +28,8 @@ pub use crate::train_config::{
 };
 pub use checkpoint::TrainTarget;
 pub(crate) use checkpoint::{checkpoint_dir, discard as discard_checkpoint};
-pub(crate) use data::{add_passes, forward_values};
 pub use data::{ImageCache, ValidationSet, describe_cached};
+pub(crate) use data::{add_passes, forward_values};
 pub use fit::{Fitted, fit};
 pub use progress::{Phase, TrainProgress};
 
