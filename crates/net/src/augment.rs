@@ -8,7 +8,7 @@
 //! gain or offset is removed by the per-image standardisation ([`crate::preprocess`]): what
 //! brightness and contrast change for the network is where pixels saturate, and gamma.
 
-use crate::regress::view::{ViewIntrinsics, view_turn};
+use crate::view::{ViewIntrinsics, view_turn};
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
@@ -319,7 +319,7 @@ mod tests {
 
     #[test]
     fn tilt_is_the_exact_view_of_the_turned_camera() {
-        use crate::regress::view::rotate_view;
+        use crate::view::rotate_view;
         let (w, h) = (40usize, 30usize);
         let px: Vec<f32> = (0..w * h)
             .map(|i| ((i * 37 % 101) as f32 / 100.0).sin().abs())

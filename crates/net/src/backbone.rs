@@ -518,6 +518,8 @@ impl GoogLeNet {
 }
 
 /// The backbone of either kind.
+// A network is built once and then borrowed; the size of its larger variant costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Module, Debug)]
 pub enum EmbeddingNet {
     /// Compact CPU backbone.

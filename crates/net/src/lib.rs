@@ -2,7 +2,7 @@
 //!
 //! A training sequence is cut into zones ([`zones`]); a Siamese network — two twins sharing
 //! one backbone ([`backbone`]) — is trained with the contrastive loss ([`loss`]) on balanced
-//! pairs of images from the same zone and from different zones ([`pairs`], [`train`]); the
+//! pairs of images from the same zone and from different zones ([`pairs`], [`mod@train`]); the
 //! descriptors of all training images form a database ([`database`]); a test image goes to
 //! the zone of its nearest descriptors ([`classifier`]), optionally smoothed over a video by
 //! an HMM over zones ([`temporal`]) or, finer, over training frames ([`track`]).
@@ -17,6 +17,8 @@
 //! Conventions (`docs/CONVENTIONS.md`): zone indices are 0-based along the training trajectory; poses
 //! are `T_wc` in mm.
 
+#![warn(missing_docs)]
+
 pub mod augment;
 pub mod backbone;
 mod binfile;
@@ -24,6 +26,7 @@ pub mod classifier;
 pub mod database;
 pub mod device;
 pub mod error;
+mod history;
 pub mod loss;
 pub mod model;
 mod optimise;
@@ -36,6 +39,8 @@ pub mod regress;
 pub mod temporal;
 pub mod track;
 pub mod train;
+mod train_config;
+pub mod view;
 pub mod whiten;
 pub mod zones;
 

@@ -17,16 +17,17 @@
 use crate::NetError;
 use crate::backbone::{BackboneConfig, EmbeddingNet};
 use crate::database::{DescriptorDatabase, ScoreRule};
+use crate::history::EpochRecord;
+pub use crate::history::write_history;
 use crate::temporal::TemporalConfig;
 use crate::track::TrackConfig;
-use crate::train::{EpochRecord, TrainConfig};
+use crate::train_config::TrainConfig;
 use crate::zones::{ZONES_FILE, ZoneConfig, ZoneTable};
 use burn::tensor::Device;
 use burn_store::{ModuleSnapshot, SafetensorsStore};
 use endoloc_data::Sequence;
 use endoloc_geometry::Camera;
 use serde::{Deserialize, Serialize};
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Version of the model folder layout.
@@ -168,7 +169,8 @@ pub fn load_weights(
     Ok(net)
 }
 
-/// Writes every file of a model folder into `dir` (which must exist).
+/// Writes every file of a model folder into `dir` (which must exist) except the loss curve
+/// `loss.png`, which the writer of the folder draws with [`crate::plot::loss_curve_or_warn`].
 ///
 /// # Errors
 /// [`NetError::Io`], [`NetError::Weights`], [`NetError::Data`] (poses).
@@ -186,31 +188,7 @@ pub fn write_model_files(
     db.save(&dir.join(crate::database::DATABASE_FILE))?;
     endoloc_data::write_tum(&dir.join(POSES_FILE), &seq.poses)?;
     write_history(&dir.join(HISTORY_FILE), history)?;
-    if let Err(e) = crate::plot::loss_curve(&dir.join(LOSS_PNG), history) {
-        tracing::warn!("loss curve not drawn: {e}");
-    }
     cfg.save(dir)
-}
-
-/// Writes `history.csv`: `epoch,loss,val_accuracy,val_within1,elapsed_s`.
-///
-/// # Errors
-/// [`NetError::Io`].
-pub fn write_history(path: &Path, history: &[EpochRecord]) -> Result<(), NetError> {
-    let mut s = String::from("epoch,loss,val_accuracy,val_within1,elapsed_s\n");
-    let opt = |v: Option<f32>| v.map_or(String::new(), |v| format!("{v:.4}"));
-    for r in history {
-        let _ = writeln!(
-            s,
-            "{},{:.6},{},{},{:.1}",
-            r.epoch,
-            r.loss,
-            opt(r.val_accuracy),
-            opt(r.val_within1),
-            r.elapsed_s
-        );
-    }
-    std::fs::write(path, s).map_err(|e| NetError::io(path, e))
 }
 
 /// Moves the finished staging folder to `dest`. With `force`, an existing `dest` is first

@@ -3,7 +3,7 @@
 //! caller gets an error and skips the picture.
 
 use crate::NetError;
-use crate::train::EpochRecord;
+use crate::history::EpochRecord;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -14,6 +14,14 @@ use std::path::Path;
 /// no usable font.
 pub fn loss_curve(path: &Path, history: &[EpochRecord]) -> Result<(), NetError> {
     draw(path, history).map_err(|e| NetError::io(path, std::io::Error::other(e.to_string())))
+}
+
+/// Draws `history` into `path` as [`loss_curve`] does; a failure (e.g. no usable font) is
+/// logged as a warning and otherwise ignored, since the picture is optional.
+pub fn loss_curve_or_warn(path: &Path, history: &[EpochRecord]) {
+    if let Err(e) = loss_curve(path, history) {
+        tracing::warn!("loss curve not drawn: {e}");
+    }
 }
 
 fn draw(path: &Path, history: &[EpochRecord]) -> Result<(), Box<dyn std::error::Error>> {

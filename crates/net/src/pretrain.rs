@@ -1,14 +1,13 @@
 //! Pretraining on several colons at once: one network trained on the passes of every colon
 //! together, its batches drawn from all of them.
 //!
-//! `endoloc pretrain` used to train colon after colon, each from the previous one's weights,
-//! so the last colon's stage could undo what the first ones taught. Here every colon's
-//! training pass and further passes (each frame at the place of its nearest training pose)
-//! go into one image cache; colon `c`'s places are offset by `c ·`
-//! [`COLON_PLACE_STRIDE`](crate::pairs::COLON_PLACE_STRIDE), so track pairs never join
-//! frames of two colons as alike and draw each negative from its partner's own colon, where
-//! the look-alikes are. Zones are each colon's own (offset likewise), for zone pairs and
-//! for the held-out validation.
+//! Training colon after colon, each from the previous one's weights, would let the last
+//! colon's stage undo what the first ones taught. Instead every colon's training pass and
+//! further passes (each frame at the place of its nearest training pose) go into one image
+//! cache; colon `c`'s places are offset by `c ·` [`crate::pairs::COLON_PLACE_STRIDE`], so
+//! track pairs never join frames of two colons as alike and draw each negative from its
+//! partner's own colon, where the look-alikes are. Zones are each colon's own (offset
+//! likewise), for zone pairs and for the held-out validation.
 //!
 //! The output is a folder like a model's, less what only a model of one pass has:
 //! `weights.safetensors` (the start weights for [`crate::train::TrainConfig::pretrained`]),
@@ -17,10 +16,12 @@
 use crate::NetError;
 use crate::model;
 use crate::pairs::COLON_PLACE_STRIDE;
-use crate::regress::view::ViewIntrinsics;
+use crate::plot;
 use crate::train::{
-    EpochRecord, ImageCache, Phase, TrainConfig, TrainProgress, TrainTarget, add_passes, fit,
+    EpochRecord, ImageCache, Phase, TrainConfig, TrainProgress, TrainTarget, add_passes,
+    checkpoint_dir, discard_checkpoint, fit,
 };
+use crate::view::ViewIntrinsics;
 use crate::zones::{Zone, ZoneConfig, ZoneTable};
 use burn::module::Module;
 use endoloc_data::Sequence;
@@ -179,7 +180,7 @@ pub fn pretrain(
     let t_load = Instant::now();
     let (cache, table, images) = joint_cache(colons, zones, cfg, progress)?;
     let load_s = t_load.elapsed().as_secs_f64();
-    let ckpt = staging.join("checkpoint");
+    let ckpt = checkpoint_dir(&staging);
     let fitted = fit(
         cfg,
         &cache,
@@ -192,9 +193,7 @@ pub fn pretrain(
     progress(&TrainProgress::outside_training(Phase::Saving, 0, 1));
     model::save_weights(&fitted.net.valid(), &staging.join(model::WEIGHTS_FILE))?;
     model::write_history(&staging.join(model::HISTORY_FILE), &fitted.history)?;
-    if let Err(e) = crate::plot::loss_curve(&staging.join(model::LOSS_PNG), &fitted.history) {
-        tracing::warn!("loss curve not drawn: {e}");
-    }
+    plot::loss_curve_or_warn(&staging.join(model::LOSS_PNG), &fitted.history);
     let record = PretrainRecord {
         train: cfg.clone(),
         zones: *zones,
@@ -204,9 +203,7 @@ pub fn pretrain(
     let path = staging.join(PRETRAIN_FILE);
     let text = toml::to_string(&record).map_err(|e| NetError::Config(e.to_string()))?;
     std::fs::write(&path, text).map_err(|e| NetError::io(&path, e))?;
-    if ckpt.exists() {
-        std::fs::remove_dir_all(&ckpt).map_err(|e| NetError::io(&ckpt, e))?;
-    }
+    discard_checkpoint(&ckpt)?;
     model::publish(&staging, &target.dir, target.force)?;
     Ok(PretrainReport {
         dir: target.dir.clone(),

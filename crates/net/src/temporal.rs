@@ -255,8 +255,9 @@ pub fn viterbi(preds: &[ZonePrediction], zones: usize, cfg: &TemporalConfig) -> 
         let mut bp = vec![0u32; zones];
         for j in 0..zones {
             let (mut best, mut arg) = (jump_val, jump_from);
-            for i in j.saturating_sub(2)..=(j + 2).min(zones - 1) {
-                let v = delta[i] + t.p(i, j).ln();
+            let (lo, hi) = (j.saturating_sub(2), (j + 2).min(zones - 1));
+            for (i, &d) in delta.iter().enumerate().take(hi + 1).skip(lo) {
+                let v = d + t.p(i, j).ln();
                 if v > best {
                     best = v;
                     arg = i;

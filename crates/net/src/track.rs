@@ -634,6 +634,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::needless_range_loop)]
     fn filter_follows_a_pass_and_ignores_a_wrong_frame() {
         let n = 200;
         let zof = zones_of(n, 20);
@@ -677,6 +678,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::needless_range_loop)]
     fn smoothing_fixes_frames_the_forward_filter_gets_wrong() {
         // Three frames after t = 50 carry no evidence of the scope having moved on: forward
         // filtering cannot know, smoothing can (the frames after them say it moved).

@@ -163,7 +163,7 @@ fn equal_frame_starts(offset: usize, n: usize, k: usize) -> Vec<usize> {
 fn arc_length_starts(s: &[f64], k: usize) -> Vec<usize> {
     let n = s.len();
     let total = s.last().copied().unwrap_or(0.0);
-    if !(total > 0.0) {
+    if total.is_nan() || total <= 0.0 {
         return equal_frame_starts(0, n, k);
     }
     let mut starts = Vec::with_capacity(k);
@@ -514,7 +514,8 @@ impl ZoneTable {
                 )
             };
             let q = Quaternion::new(num(12)?, num(9)?, num(10)?, num(11)?);
-            if !(q.norm() > 0.5) {
+            let norm = q.norm();
+            if norm.is_nan() || norm <= 0.5 {
                 return Err(p(ln, "quaternion is not unit length".into()));
             }
             let (first, last) = (int(1)?, int(2)?);

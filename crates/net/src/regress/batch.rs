@@ -1,11 +1,11 @@
 //! Pieces shared by the two training loops: held-out frames, augmented query images,
 //! batches as tensors.
 
-use super::RegressConfig;
-use super::view::{ViewIntrinsics, rotate_view, view_turn};
+use super::config::RegressConfig;
 use crate::augment::augment;
 use crate::preprocess::{InputSize, standardize};
 use crate::train::ImageCache;
+use crate::view::{ViewIntrinsics, rotate_view, view_turn};
 use burn::tensor::{Device, Tensor, TensorData};
 use nalgebra::UnitQuaternion;
 use rand::{Rng, SeedableRng};

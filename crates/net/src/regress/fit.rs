@@ -4,8 +4,9 @@
 //! progress reports and the per-epoch history. Each method supplies only how a batch is drawn
 //! and scored and how its held-out frames are predicted.
 
+use super::config::RegressConfig;
 use super::io::{self, RegressMethod, RegressModelFile};
-use super::{RegressConfig, RegressEpoch, RegressPhase, RegressProgress};
+use super::progress::{RegressEpoch, RegressPhase, RegressProgress};
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
 use crate::optimise::descend;

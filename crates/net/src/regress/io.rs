@@ -10,8 +10,10 @@
 //!
 //! Written to `MODEL.partial/` and renamed into place ([`crate::model::publish`]).
 
+use super::config::RegressConfig;
+use super::data::TrainingSet;
 use super::normalize::PoseNormalizer;
-use super::{RegressConfig, RegressEpoch, TrainingSet};
+use super::progress::RegressEpoch;
 use crate::NetError;
 use burn::module::Module;
 use burn_store::{ModuleSnapshot, SafetensorsStore};

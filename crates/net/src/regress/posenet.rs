@@ -20,24 +20,26 @@
 use super::batch::{
     clean_batch, draw_frames, images_tensor, query_batch, rows_tensor, split_holdout,
 };
-use super::fit::{RegressNetwork, fit, init_backbone, load_model};
-use super::io::{self, RegressMethod, RegressModelFile};
-use super::view::rotated_rotation;
-use super::{
-    PoseHead, PoseNormalizer, RegressConfig, RegressEpoch, RegressProgress, TrainingSet,
-    check_frame, posenet_loss, scaled_features, tensor_rows,
-};
+use super::config::RegressConfig;
+use super::data::{TrainingSet, check_frame};
+use super::fit::{RegressNetwork, fit, init_backbone};
+use super::head::{PoseHead, scaled_features, tensor_rows};
+use super::io::{RegressMethod, RegressModelFile};
+use super::loss::posenet_loss;
+use super::model::RegressModel;
+use super::normalize::PoseNormalizer;
+use super::progress::RegressProgress;
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
 use crate::preprocess::network_input;
 use crate::train::ImageCache;
+use crate::view::rotated_rotation;
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 use endoloc_geometry::pose::pose_from_parts;
 use endoloc_geometry::{Pose, orientation_error_deg, position_error_mm};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use std::path::Path;
 
 /// The PoseNet network: backbone → scaled descriptor → pose head.
 #[derive(Module, Debug)]
@@ -69,60 +71,11 @@ impl PoseNetNet {
     }
 }
 
-/// A trained PoseNet (validation mode).
-pub struct PoseNetModel {
-    file: RegressModelFile,
-    net: PoseNetNet,
-    device: Device,
-}
-
-impl std::fmt::Debug for PoseNetModel {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PoseNetModel")
-            .field("backbone", &self.file.config.backbone.name())
-            .field("frames", &self.file.frames)
-            .finish()
-    }
-}
+/// A trained PoseNet (validation mode): loading and saving as every
+/// [`RegressModel`], prediction below.
+pub type PoseNetModel = RegressModel<PoseNetNet>;
 
 impl PoseNetModel {
-    /// Writes the model folder `dir` atomically ([`io`]); an existing `dir` is an error
-    /// unless `overwrite`.
-    ///
-    /// # Errors
-    /// [`NetError::AlreadyExists`], [`NetError::Io`], [`NetError::Weights`].
-    pub fn save(&self, dir: &Path, overwrite: bool) -> Result<(), NetError> {
-        io::save_model(dir, &self.file, &self.net, overwrite)
-    }
-
-    /// Loads a model folder on the CPU.
-    ///
-    /// # Errors
-    /// [`NetError::Io`] / [`NetError::Parse`] naming the missing or bad file (or an OffsetNet
-    /// folder), [`NetError::Weights`] for weights that do not fit `regress.toml`.
-    pub fn load(dir: &Path) -> Result<Self, NetError> {
-        Self::load_on(dir, "cpu")
-    }
-
-    /// Loads a model folder on the named device ([`crate::device::from_name`]).
-    ///
-    /// # Errors
-    /// As [`PoseNetModel::load`], and [`NetError::Device`].
-    pub fn load_on(dir: &Path, device: &str) -> Result<Self, NetError> {
-        let (file, net, device) = load_model(dir, device)?;
-        Ok(PoseNetModel { file, net, device })
-    }
-
-    /// What the model is and how it was trained (`regress.toml`).
-    pub fn info(&self) -> &RegressModelFile {
-        &self.file
-    }
-
-    /// Loss and held-out errors per epoch.
-    pub fn history(&self) -> &[RegressEpoch] {
-        &self.file.history
-    }
-
     /// The pose `T_wc` (mm) of one grey frame.
     ///
     /// # Errors

@@ -1,0 +1,227 @@
+//! What a training run keeps on disk besides the finished model: the staging folder
+//! `DIR.partial/` the model is written into ([`TrainTarget`]), and the checkpoint in its
+//! `checkpoint/` subfolder that an interrupted run resumes from.
+//!
+//! A checkpoint is three files, each written under a temporary name and renamed into place:
+//! `net.bpk` (the network's weights, as burn saves a module), `optim.bpk` (Adam's state) and
+//! `state.json` (the epoch reached, the history, the config and the data's frame and zone
+//! counts, checked on resume).
+
+use crate::NetError;
+use crate::backbone::EmbeddingNet;
+use crate::history::EpochRecord;
+use crate::train_config::TrainConfig;
+use burn::module::Module;
+use burn::optim::ModuleOptimizer;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Saved training state between runs (`checkpoint/state.json`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct CheckpointState {
+    epoch: usize,
+    history: Vec<EpochRecord>,
+    config: TrainConfig,
+    frames: usize,
+    zones: usize,
+}
+
+const CKPT_NET: &str = "net.bpk";
+const CKPT_OPTIM: &str = "optim.bpk";
+const CKPT_STATE: &str = "state.json";
+/// Name of the checkpoint folder inside the staging folder.
+const CHECKPOINT_DIR: &str = "checkpoint";
+
+/// The network being trained with its optimiser: what a checkpoint holds besides its state.
+pub(crate) struct Learner {
+    /// The backbone (autodiff device).
+    pub net: EmbeddingNet,
+    /// Adam and its moments.
+    pub optim: ModuleOptimizer,
+}
+
+/// Where a resumed run continues: the last epoch saved and the history up to it.
+pub(crate) struct ResumePoint {
+    /// Epochs done (1-based number of the last one).
+    pub epoch: usize,
+    /// Loss and validation of those epochs.
+    pub history: Vec<EpochRecord>,
+}
+
+/// The checkpoint folder of staging folder `staging`: `staging/checkpoint`.
+pub(crate) fn checkpoint_dir(staging: &Path) -> PathBuf {
+    staging.join(CHECKPOINT_DIR)
+}
+
+/// Loads the checkpoint in `dir` into `learner` when there is one (`state.json` present);
+/// `None` leaves `learner` as it was.
+///
+/// # Errors
+/// [`NetError::Io`] / [`NetError::Parse`] for `state.json`; [`NetError::Config`] for a
+/// checkpoint of another backbone, frame count or zone count; [`NetError::Weights`] for
+/// unreadable network or optimiser files.
+pub(crate) fn resume(
+    dir: &Path,
+    cfg: &TrainConfig,
+    frames: usize,
+    zones: usize,
+    learner: Learner,
+) -> Result<(Learner, Option<ResumePoint>), NetError> {
+    let state_path = dir.join(CKPT_STATE);
+    if !state_path.is_file() {
+        return Ok((learner, None));
+    }
+    let text = std::fs::read_to_string(&state_path).map_err(|e| NetError::io(&state_path, e))?;
+    let st: CheckpointState = serde_json::from_str(&text)
+        .map_err(|e| NetError::parse(&state_path, e.line(), e.to_string()))?;
+    if st.config.backbone != cfg.backbone || st.frames != frames || st.zones != zones {
+        return Err(NetError::Config(format!(
+            "{}: the checkpoint was made with another backbone, frame count or zoning ({} frames, {} zones); start over with --force",
+            dir.display(),
+            st.frames,
+            st.zones
+        )));
+    }
+    let p = dir.join(CKPT_NET);
+    let net = learner
+        .net
+        .try_load_file(&p)
+        .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
+    let p = dir.join(CKPT_OPTIM);
+    let optim = learner
+        .optim
+        .load(&p)
+        .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
+    Ok((
+        Learner { net, optim },
+        Some(ResumePoint {
+            epoch: st.epoch,
+            history: st.history,
+        }),
+    ))
+}
+
+/// Whether epoch `epoch` (1-based) ends with a checkpoint: every `every` epochs (0: never)
+/// and after the last one.
+pub(crate) fn due(every: usize, epoch: usize, last: bool) -> bool {
+    last || (every > 0 && epoch.is_multiple_of(every))
+}
+
+/// Writes the checkpoint of `learner` after `epoch` (1-based) into `dir`, replacing the
+/// previous one only once every file is complete.
+///
+/// # Errors
+/// [`NetError::Io`]; [`NetError::Weights`] when burn cannot write the network or optimiser.
+pub(crate) fn save(
+    dir: &Path,
+    learner: &Learner,
+    epoch: usize,
+    history: &[EpochRecord],
+    cfg: &TrainConfig,
+    (frames, zones): (usize, usize),
+) -> Result<(), NetError> {
+    let state = CheckpointState {
+        epoch,
+        history: history.to_vec(),
+        config: cfg.clone(),
+        frames,
+        zones,
+    };
+    write_files(dir, &learner.net, &learner.optim, &state)
+}
+
+/// Removes the checkpoint folder `dir` (a finished run's), if it exists.
+///
+/// # Errors
+/// [`NetError::Io`].
+pub(crate) fn discard(dir: &Path) -> Result<(), NetError> {
+    if dir.exists() {
+        std::fs::remove_dir_all(dir).map_err(|e| NetError::io(dir, e))?;
+    }
+    Ok(())
+}
+
+fn write_files(
+    dir: &Path,
+    net: &EmbeddingNet,
+    optim: &ModuleOptimizer,
+    state: &CheckpointState,
+) -> Result<(), NetError> {
+    std::fs::create_dir_all(dir).map_err(|e| NetError::io(dir, e))?;
+    // Write to temporary names, then rename: a crash mid-write leaves the old checkpoint.
+    let tmp = |name: &str| dir.join(format!(".{name}.tmp"));
+    let p = tmp(CKPT_NET);
+    net.clone()
+        .save_file(&p)
+        .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
+    let p = tmp(CKPT_OPTIM);
+    optim
+        .save(&p)
+        .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
+    let p = tmp(CKPT_STATE);
+    let text = serde_json::to_string_pretty(state).map_err(|e| NetError::Config(e.to_string()))?;
+    std::fs::write(&p, text).map_err(|e| NetError::io(&p, e))?;
+    for name in [CKPT_NET, CKPT_OPTIM, CKPT_STATE] {
+        let (from, to) = (tmp(name), dir.join(name));
+        // burn may add an extension to the file name it is given.
+        let from = if from.is_file() {
+            from
+        } else {
+            from.with_extension("tmp.bpk")
+        };
+        std::fs::rename(&from, &to).map_err(|e| NetError::io(&to, e))?;
+    }
+    Ok(())
+}
+
+/// Where and how [`train`](super::train) and [`pretrain`](crate::pretrain::pretrain) write
+/// their output folder.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TrainTarget {
+    /// The model folder to create.
+    pub dir: PathBuf,
+    /// Replace an existing model folder.
+    pub force: bool,
+    /// Continue from the checkpoint of an interrupted run (`DIR.partial/checkpoint`).
+    pub resume: bool,
+}
+
+impl TrainTarget {
+    /// Checks that the output may be written and makes its staging folder
+    /// ([`TrainTarget::staging_dir`]), kept as it is when resuming, emptied with `force`.
+    ///
+    /// # Errors
+    /// [`NetError::AlreadyExists`] for an existing output without `force`;
+    /// [`NetError::Config`] for an interrupted run without `resume` or `force`;
+    /// [`NetError::Io`].
+    pub fn prepare(&self) -> Result<PathBuf, NetError> {
+        if self.dir.exists() && !self.force {
+            return Err(NetError::AlreadyExists {
+                path: self.dir.clone(),
+            });
+        }
+        let staging = self.staging_dir();
+        if staging.exists() && !self.resume {
+            if self.force {
+                std::fs::remove_dir_all(&staging).map_err(|e| NetError::io(&staging, e))?;
+            } else {
+                return Err(NetError::Config(format!(
+                    "{} holds an interrupted training run: pass --resume to continue it or --force to start over",
+                    staging.display()
+                )));
+            }
+        }
+        std::fs::create_dir_all(&staging).map_err(|e| NetError::io(&staging, e))?;
+        Ok(staging)
+    }
+
+    /// The staging folder next to the model folder: `DIR.partial`.
+    pub fn staging_dir(&self) -> PathBuf {
+        let name = self
+            .dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "model".into());
+        self.dir.with_file_name(format!("{name}.partial"))
+    }
+}
