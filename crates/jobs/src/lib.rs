@@ -31,4 +31,6 @@ pub mod predict;
 pub use localize::{LocalizeJob, LocalizeMethod, LocalizeReport};
 pub use map::{MapJob, MapReport};
 pub mod train;
+pub mod simulate;
+pub use simulate::{SimulateJob, SimulateReport};
 pub use train::{TrainJob, TrainMethod, TrainReport};
