@@ -32,5 +32,7 @@ pub use localize::{LocalizeJob, LocalizeMethod, LocalizeReport};
 pub use map::{MapJob, MapReport};
 pub mod train;
 pub mod simulate;
+pub mod eval;
+pub use eval::{EvalJob, EvalReport};
 pub use simulate::{SimulateJob, SimulateReport};
 pub use train::{TrainJob, TrainMethod, TrainReport};
