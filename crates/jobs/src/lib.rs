@@ -33,6 +33,8 @@ pub use map::{MapJob, MapReport};
 pub mod train;
 pub mod simulate;
 pub mod eval;
+pub mod dataset;
+pub use dataset::{DatasetAction, DatasetJob, DatasetReport};
 pub use eval::{EvalJob, EvalReport};
 pub use simulate::{SimulateJob, SimulateReport};
 pub use train::{TrainJob, TrainMethod, TrainReport};
