@@ -34,6 +34,8 @@ pub mod train;
 pub mod simulate;
 pub mod eval;
 pub mod dataset;
+pub mod features;
+pub use features::{FeaturesJob, FeaturesReport};
 pub use dataset::{DatasetAction, DatasetJob, DatasetReport};
 pub use eval::{EvalJob, EvalReport};
 pub use simulate::{SimulateJob, SimulateReport};
