@@ -212,7 +212,12 @@ impl fmt::Display for EvalReport {
         if let Some(acc) = m.zone_accuracy {
             writeln!(f, "{:>14}: {:.1} %", "zone accuracy", 100.0 * acc)?;
         }
-        write!(f, "wrote {} files to {}", self.files.len(), self.out.display())
+        write!(
+            f,
+            "wrote {} files to {}",
+            self.files.len(),
+            self.out.display()
+        )
     }
 }
 

@@ -161,9 +161,7 @@ impl FeaturesJob {
         refuse_existing(&outputs, self.force)?;
 
         let grey = image::open(&self.image)
-            .map_err(|e| {
-                JobError::Invalid(format!("reading image {}: {e}", self.image.display()))
-            })?
+            .map_err(|e| JobError::Invalid(format!("reading image {}: {e}", self.image.display())))?
             .to_luma8();
         let surf = surf_cfg.clone().init()?;
         let start = Instant::now();

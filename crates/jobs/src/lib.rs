@@ -35,6 +35,8 @@ pub mod simulate;
 pub mod eval;
 pub mod dataset;
 pub mod features;
+pub mod import;
+pub use import::{ImportFormat, ImportJob, ImportReport};
 pub use features::{FeaturesJob, FeaturesReport};
 pub use dataset::{DatasetAction, DatasetJob, DatasetReport};
 pub use eval::{EvalJob, EvalReport};

@@ -220,7 +220,11 @@ impl fmt::Display for SimulateReport {
             self.hfov_deg,
             if self.depth { "yes" } else { "no" }
         )?;
-        writeln!(f, "clearance min {:.2} mm from the wall", s.min_clearance_mm)?;
+        writeln!(
+            f,
+            "clearance min {:.2} mm from the wall",
+            s.min_clearance_mm
+        )?;
         write!(
             f,
             "time      {:.1} s ({:.1} frames/s rendering + PNG, {} threads)",
