@@ -36,6 +36,8 @@ pub mod eval;
 pub mod dataset;
 pub mod features;
 pub mod import;
+pub mod classify;
+pub use classify::{ClassifyJob, ClassifyReport, ZoneAccuracy};
 pub use import::{ImportFormat, ImportJob, ImportReport};
 pub use features::{FeaturesJob, FeaturesReport};
 pub use dataset::{DatasetAction, DatasetJob, DatasetReport};
