@@ -63,7 +63,7 @@ pub struct Args {
     seq: PathBuf,
 
     /// Which zone the `zone` column holds: none (raw), forward, viterbi, track (causal, as
-    /// causal, as live) or smooth. All are always in the CSV.
+    /// live) or smooth. All are always in the CSV.
     #[arg(long, default_value_t = ClassifyJob::default().filter)]
     filter: String,
 
