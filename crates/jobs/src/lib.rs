@@ -37,6 +37,8 @@ pub mod dataset;
 pub mod features;
 pub mod import;
 pub mod classify;
+pub mod pretrain;
+pub use pretrain::{PretrainJob, PretrainReport};
 pub use classify::{ClassifyJob, ClassifyReport, ZoneAccuracy};
 pub use import::{ImportFormat, ImportJob, ImportReport};
 pub use features::{FeaturesJob, FeaturesReport};
