@@ -248,4 +248,38 @@ mod tests {
             SimConfig::preset(Preset::Small)
         );
     }
+
+    #[test]
+    fn a_tiny_colon_simulates_checks_and_evaluates() {
+        let tmp = tempfile::tempdir().unwrap();
+        let data = tmp.path().join("data");
+        let job = SimulateJob {
+            train_frames: Some(12),
+            test_frames: Some(12),
+            width: Some(64),
+            height: Some(48),
+            out: data.clone(),
+            ..SimulateJob::default()
+        };
+        let report = job.run(&crate::Silent).unwrap();
+        assert!(report.to_string().contains("sequence  test: 12 frames"), "{report}");
+        assert!(job.run(&crate::Silent).is_err(), "an existing dataset is kept");
+        let check = crate::DatasetJob {
+            dir: data.clone(),
+            ..crate::DatasetJob::default()
+        };
+        assert_eq!(check.run(&crate::Silent).unwrap().problems(), 0);
+        let poses = data.join("test/poses.txt");
+        let eval = crate::EvalJob {
+            gt: poses.clone(),
+            est: poses,
+            out: tmp.path().join("eval"),
+            no_plots: true,
+            ..crate::EvalJob::default()
+        };
+        let report = eval.run(&crate::Silent).unwrap();
+        assert_eq!(report.evaluation.metrics.localized, 12);
+        assert!(report.evaluation.metrics.position_mm.max < 1e-9);
+        assert!(tmp.path().join("eval/metrics.json").is_file());
+    }
 }
