@@ -262,8 +262,14 @@ mod tests {
             ..SimulateJob::default()
         };
         let report = job.run(&crate::Silent).unwrap();
-        assert!(report.to_string().contains("sequence  test: 12 frames"), "{report}");
-        assert!(job.run(&crate::Silent).is_err(), "an existing dataset is kept");
+        assert!(
+            report.to_string().contains("sequence  test: 12 frames"),
+            "{report}"
+        );
+        assert!(
+            job.run(&crate::Silent).is_err(),
+            "an existing dataset is kept"
+        );
         let check = crate::DatasetJob {
             dir: data.clone(),
             ..crate::DatasetJob::default()
