@@ -2,8 +2,8 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
-use endoloc_data::{check_dataset, dataset_info};
+use anyhow::{Result, bail};
+use endoloc_jobs::{DatasetAction, DatasetJob, Progress};
 
 /// Inspect a dataset: check it for problems, or summarize it.
 ///
@@ -36,23 +36,23 @@ enum Command {
     },
 }
 
-/// Runs `endoloc dataset …`.
-pub fn run(args: Args) -> Result<()> {
-    match args.command {
-        Command::Check { dir } => {
-            let report =
-                check_dataset(&dir).with_context(|| format!("cannot check {}", dir.display()))?;
-            println!("{report}");
-            if !report.is_ok() {
-                bail!("{} problem(s) in {}", report.problems.len(), dir.display());
-            }
-            Ok(())
-        }
-        Command::Info { dir } => {
-            let info = dataset_info(&dir)
-                .with_context(|| format!("cannot summarize {}", dir.display()))?;
-            print!("{info}");
-            Ok(())
-        }
+impl From<Args> for DatasetJob {
+    fn from(a: Args) -> Self {
+        let (action, dir) = match a.command {
+            Command::Check { dir } => (DatasetAction::Check, dir),
+            Command::Info { dir } => (DatasetAction::Info, dir),
+        };
+        DatasetJob { action, dir }
     }
+}
+
+/// Runs `endoloc dataset …`.
+pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
+    let job = DatasetJob::from(args);
+    let report = job.run(ui)?;
+    println!("{report}");
+    if report.problems() > 0 {
+        bail!("{} problem(s) in {}", report.problems(), job.dir.display());
+    }
+    Ok(())
 }

@@ -1,17 +1,11 @@
 //! `endoloc eval`: errors, plots and a report for an estimated trajectory.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::ValueEnum;
-use endoloc_data::read_tum;
 use endoloc_eval::align::AlignmentKind;
-use endoloc_eval::association::AssociationConfig;
-use endoloc_eval::rpe::RpeConfig;
-use endoloc_eval::{
-    EvalConfig, EvalInputs, Sources, WriteOptions, evaluate, read_frames_csv, read_zones_csv,
-    write_results,
-};
+use endoloc_jobs::{EvalJob, Progress};
 
 /// Evaluate an estimated trajectory against the ground truth: position / orientation errors
 /// (evo-compatible APE, optional Umeyama alignment), relative pose error, localized fraction,
@@ -67,15 +61,15 @@ pub struct Args {
     align: AlignArg,
 
     /// Largest timestamp difference for associating poses, seconds (evo --t_max_diff).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = EvalJob::default().t_max_diff)]
     t_max_diff: f64,
 
     /// Offset added to the estimate's timestamps before associating, seconds (evo --t_offset).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = EvalJob::default().t_offset, allow_hyphen_values = true)]
     t_offset: f64,
 
     /// RPE pair distance, in associated poses (evo_rpe --delta N --delta_unit f).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = EvalJob::default().rpe_delta)]
     rpe_delta: usize,
 
     /// RPE over every pair (i, i+delta) instead of consecutive pairs (evo_rpe --all_pairs).
@@ -94,114 +88,31 @@ enum AlignArg {
     Sim3,
 }
 
-fn parent_or_dot(p: &Path) -> PathBuf {
-    match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
+impl From<Args> for EvalJob {
+    fn from(a: Args) -> Self {
+        EvalJob {
+            gt: a.gt,
+            est: a.est,
+            frames: a.frames,
+            gt_zones: a.gt_zones,
+            out: a.out.unwrap_or_default(),
+            force: a.force,
+            align: match a.align {
+                AlignArg::None => AlignmentKind::None,
+                AlignArg::Se3 => AlignmentKind::Se3,
+                AlignArg::Sim3 => AlignmentKind::Sim3,
+            },
+            t_max_diff: a.t_max_diff,
+            t_offset: a.t_offset,
+            rpe_delta: a.rpe_delta,
+            rpe_all_pairs: a.rpe_all_pairs,
+            no_plots: a.no_plots,
+        }
     }
 }
 
 /// Runs `endoloc eval`.
-pub fn run(args: Args) -> Result<()> {
-    let config = EvalConfig {
-        association: AssociationConfig {
-            max_diff_s: args.t_max_diff,
-            offset_s: args.t_offset,
-        },
-        alignment: match args.align {
-            AlignArg::None => AlignmentKind::None,
-            AlignArg::Se3 => AlignmentKind::Se3,
-            AlignArg::Sim3 => AlignmentKind::Sim3,
-        },
-        rpe: RpeConfig {
-            delta_frames: args.rpe_delta,
-            all_pairs: args.rpe_all_pairs,
-        },
-    };
-    let gt = read_tum(&args.gt).context("reading the ground truth (--gt)")?;
-    let est = read_tum(&args.est).context("reading the estimate (--est)")?;
-    let frames_path = args.frames.clone().or_else(|| {
-        let p = parent_or_dot(&args.est).join("frames.csv");
-        p.is_file().then(|| {
-            tracing::info!("using {}", p.display());
-            p
-        })
-    });
-    let frames = frames_path
-        .as_deref()
-        .map(read_frames_csv)
-        .transpose()
-        .context("reading frames.csv")?;
-    let zones = args
-        .gt_zones
-        .as_deref()
-        .map(read_zones_csv)
-        .transpose()
-        .context("reading the ground-truth zones (--gt-zones)")?;
-    let evaluation = evaluate(
-        &EvalInputs {
-            gt: &gt,
-            est: &est,
-            frames: frames.as_deref(),
-            gt_zones: zones.as_deref(),
-        },
-        &config,
-    )
-    .with_context(|| {
-        format!(
-            "evaluating {} against {}",
-            args.est.display(),
-            args.gt.display()
-        )
-    })?;
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| parent_or_dot(&args.est).join("eval"));
-    let shown = |p: &Path| p.display().to_string();
-    let written = write_results(
-        &evaluation,
-        &out,
-        &WriteOptions {
-            force: args.force,
-            no_plots: args.no_plots,
-            plot: Default::default(),
-            sources: Sources {
-                gt: shown(&args.gt),
-                est: shown(&args.est),
-                frames: frames_path.as_deref().map(shown),
-                gt_zones: args.gt_zones.as_deref().map(shown),
-            },
-        },
-    )?;
-    if !args.no_plots && !written.plot_text {
-        tracing::warn!("no usable system font (fontconfig): plots drawn without text");
-    }
-    let m = &evaluation.metrics;
-    println!(
-        "frames {}  localized {} ({:.1} %)",
-        m.frames,
-        m.localized,
-        100.0 * m.localized_fraction
-    );
-    for (name, s) in [
-        ("position mm", &m.position_mm),
-        ("orientation °", &m.orientation_deg),
-    ] {
-        println!(
-            "{name:>14}: mean {:.3}  median {:.3}  rmse {:.3}  p90 {:.3}  max {:.3}",
-            s.mean, s.median, s.rmse, s.p90, s.max
-        );
-    }
-    if let Some(r) = &m.rpe {
-        println!(
-            "{:>14}: {:.3} mm  {:.3}° (rmse, delta {} frames)",
-            "RPE", r.translation_mm.rmse, r.rotation_deg.rmse, r.delta_frames
-        );
-    }
-    if let Some(acc) = m.zone_accuracy {
-        println!("{:>14}: {:.1} %", "zone accuracy", 100.0 * acc);
-    }
-    println!("wrote {} files to {}", written.files.len(), out.display());
+pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
+    println!("{}", EvalJob::from(args).run(ui)?);
     Ok(())
 }

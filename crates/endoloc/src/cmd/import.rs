@@ -1,15 +1,9 @@
 //! `endoloc import`: convert C3VD, SimCol3D and EndoSLAM recordings into an endoloc dataset.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
-use clap::ValueEnum;
-use endoloc_data::import::c3vd::{C3vdConfig, c3vd_camera, read_c3vd};
-use endoloc_data::import::endoslam::{EndoSlamConfig, Units, read_endoslam};
-use endoloc_data::import::simcol3d::{SimCol3dConfig, read_simcol3d, simcol3d_camera};
-use endoloc_data::import::split::{parse_split, split_sequence};
-use endoloc_data::import::{ImportedSequence, WriteImportConfig, write_import};
-use endoloc_geometry::{Camera, Distortion};
+use anyhow::Result;
+use endoloc_jobs::{ImportFormat, ImportJob, Progress};
 
 /// Import a public colonoscopy dataset as an endoloc dataset (format v1: mm, T_wc
 /// camera-to-world, OpenCV camera axes, TUM poses.txt, PNG images, 16-bit depth PNG).
@@ -112,7 +106,7 @@ enum Format {
     },
 }
 
-#[derive(Debug, Clone, Copy, ValueEnum)]
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
 enum UnitsArg {
     Mm,
     Cm,
@@ -139,232 +133,91 @@ struct Common {
     #[arg(long, value_name = "SRC2")]
     test: Option<PathBuf>,
     /// Sequence name for SRC when neither --split nor --test is given.
-    #[arg(long, default_value = "train")]
+    #[arg(long, default_value_t = ImportJob::default().seq)]
     seq: String,
     /// Frame rate for the time stamps (frame i at i / fps s) where the source has none.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = ImportJob::default().fps)]
     fps: f64,
 }
 
-/// Parses `W,H,FX,FY,CX,CY` (and, when `allow_fisheye`, 4 more fisheye coefficients).
-fn parse_camera(text: &str, allow_fisheye: bool) -> Result<Camera> {
-    let v: Vec<f64> = text
-        .split(',')
-        .map(|s| {
-            s.trim()
-                .parse::<f64>()
-                .with_context(|| format!("--camera: {s:?} is not a number"))
-        })
-        .collect::<Result<_>>()?;
-    let distortion = match (v.len(), allow_fisheye) {
-        (6, _) => Distortion::None,
-        (10, true) => Distortion::Fisheye {
-            k1: v[6],
-            k2: v[7],
-            k3: v[8],
-            k4: v[9],
-        },
-        (n, true) => {
-            bail!("--camera: {n} values; expected W,H,FX,FY,CX,CY or W,H,FX,FY,CX,CY,K1,K2,K3,K4")
-        }
-        (n, false) => bail!("--camera: {n} values; expected W,H,FX,FY,CX,CY"),
-    };
-    let size = |x: f64, what: &str| -> Result<u32> {
-        if x.fract() != 0.0 || !(1.0..=100_000.0).contains(&x) {
-            bail!("--camera: {what} = {x}; expected a positive whole number of pixels");
-        }
-        Ok(x as u32)
-    };
-    let cam = Camera {
-        width: size(v[0], "W")?,
-        height: size(v[1], "H")?,
-        fx: v[2],
-        fy: v[3],
-        cx: v[4],
-        cy: v[5],
-        distortion,
-    };
-    cam.validate()
-        .map_err(|e| anyhow::anyhow!("--camera: {e}"))?;
-    Ok(cam)
-}
-
-/// Runs `endoloc import …`.
-pub fn run(args: Args) -> Result<()> {
-    let (format, src, common, undistort, read): (
-        &str,
-        PathBuf,
-        Common,
-        bool,
-        Box<dyn Fn(&Path) -> Result<ImportedSequence, endoloc_data::DataError>>,
-    ) = match args.format {
-        Format::C3vd {
-            src,
-            undistort,
-            no_depth,
-            camera,
-            common,
-        } => {
-            let cfg = C3vdConfig {
-                camera: camera
-                    .as_deref()
-                    .map(|c| parse_camera(c, true))
-                    .transpose()?
-                    .unwrap_or_else(c3vd_camera),
-                fps: common.fps,
-                depth: !no_depth,
-            };
-            (
-                "c3vd",
+impl From<Args> for ImportJob {
+    fn from(a: Args) -> Self {
+        let base = ImportJob {
+            command: Some(std::env::args().collect::<Vec<_>>().join(" ")),
+            ..ImportJob::default()
+        };
+        let (job, common) = match a.format {
+            Format::C3vd {
                 src,
-                common,
                 undistort,
-                Box::new(move |p| read_c3vd(p, &cfg)),
-            )
-        }
-        Format::Simcol3d {
-            src,
-            sequence,
-            no_depth,
-            camera,
-            common,
-        } => {
-            let cfg = SimCol3dConfig {
-                camera: camera
-                    .as_deref()
-                    .map(|c| parse_camera(c, false))
-                    .transpose()?
-                    .unwrap_or_else(simcol3d_camera),
-                fps: common.fps,
-                sequence,
-                depth: !no_depth,
-            };
-            // A --test recording is usually another Frames_S* folder: its suffix comes from
-            // its own folder name, not from --sequence.
-            let test_cfg = SimCol3dConfig {
-                sequence: None,
-                ..cfg.clone()
-            };
-            let first = src.clone();
-            (
-                "simcol3d",
-                src,
+                no_depth,
+                camera,
                 common,
-                false,
-                Box::new(move |p| read_simcol3d(p, if p == first { &cfg } else { &test_cfg })),
-            )
-        }
-        Format::Endoslam {
-            src,
-            units,
-            camera,
-            poses,
-            sheet,
-            frames,
-            common,
-        } => {
-            let units = match units {
-                UnitsArg::Mm => Units::Mm,
-                UnitsArg::Cm => Units::Cm,
-                UnitsArg::M => Units::M,
-            };
-            let cfg = EndoSlamConfig {
-                camera: parse_camera(&camera, false)?,
+            } => (
+                ImportJob {
+                    format: ImportFormat::C3vd,
+                    src,
+                    undistort,
+                    depth: !no_depth,
+                    camera,
+                    ..base
+                },
+                common,
+            ),
+            Format::Simcol3d {
+                src,
+                sequence,
+                no_depth,
+                camera,
+                common,
+            } => (
+                ImportJob {
+                    format: ImportFormat::Simcol3d,
+                    src,
+                    sequence,
+                    depth: !no_depth,
+                    camera,
+                    ..base
+                },
+                common,
+            ),
+            Format::Endoslam {
+                src,
                 units,
+                camera,
                 poses,
                 sheet,
                 frames,
-                fps: common.fps,
-            };
-            let first = src.clone();
-            let test_cfg = EndoSlamConfig {
-                poses: None,
-                sheet: None,
-                frames: None,
-                ..cfg.clone()
-            };
-            (
-                "endoslam",
-                src,
                 common,
-                false,
-                Box::new(move |p| read_endoslam(p, if p == first { &cfg } else { &test_cfg })),
-            )
-        }
-    };
-    let main =
-        read(&src).with_context(|| format!("reading {format} recording {}", src.display()))?;
-    let sequences = if let Some(spec) = &common.split {
-        let parts = parse_split(spec).map_err(|e| anyhow::anyhow!("--split: {e}"))?;
-        split_sequence(&main, &parts)?
-    } else if let Some(test) = &common.test {
-        let t = read(test)
-            .with_context(|| format!("reading {format} test recording {}", test.display()))?;
-        vec![("train".to_string(), main), ("test".to_string(), t)]
-    } else {
-        vec![(common.seq.clone(), main)]
-    };
-    let mut source = toml::Table::new();
-    source.insert("tool".into(), format!("endoloc import {format}").into());
-    source.insert("version".into(), env!("CARGO_PKG_VERSION").into());
-    source.insert("format".into(), format.into());
-    source.insert(
-        "command".into(),
-        std::env::args().collect::<Vec<_>>().join(" ").into(),
-    );
-    let mut recordings = vec![toml::Value::from(src.display().to_string())];
-    if let Some(t) = &common.test {
-        recordings.push(t.display().to_string().into());
-    }
-    source.insert("recordings".into(), toml::Value::Array(recordings));
-    let name = common.name.clone().unwrap_or_else(|| {
-        common.out.file_name().map_or_else(
-            || format!("{format} import"),
-            |n| n.to_string_lossy().into_owned(),
-        )
-    });
-    let summary = write_import(
-        &common.out,
-        &sequences,
-        &WriteImportConfig {
-            name,
-            undistort,
-            overwrite: common.force,
-            source,
-        },
-    )
-    .map_err(|e| match e {
-        endoloc_data::DataError::AlreadyExists { .. } => {
-            anyhow::Error::new(e).context("not replacing it: add --force to overwrite")
-        }
-        e => anyhow::Error::new(e).context(format!("writing {}", common.out.display())),
-    })?;
-    for (_, s) in &sequences {
-        for n in &s.notes {
-            tracing::info!("{}: {n}", s.source.display());
+            } => (
+                ImportJob {
+                    format: ImportFormat::Endoslam,
+                    src,
+                    units: Some(format!("{units:?}").to_lowercase()),
+                    camera: Some(camera),
+                    poses,
+                    sheet,
+                    frames,
+                    ..base
+                },
+                common,
+            ),
+        };
+        ImportJob {
+            out: common.out,
+            force: common.force,
+            name: common.name,
+            split: common.split,
+            test: common.test,
+            seq: common.seq,
+            fps: common.fps,
+            ..job
         }
     }
-    let c = &summary.camera;
-    println!(
-        "imported {format} into {}: camera {}x{} fx {} fy {} cx {} cy {}{}",
-        summary.dir.display(),
-        c.width,
-        c.height,
-        c.fx,
-        c.fy,
-        c.cx,
-        c.cy,
-        if c.distortion.is_none() {
-            String::new()
-        } else {
-            format!(" {:?}", c.distortion)
-        }
-    );
-    for (name, frames, depth) in &summary.sequences {
-        println!(
-            "  {name}: {frames} frames{}",
-            if *depth { ", depth" } else { "" }
-        );
-    }
+}
+
+/// Runs `endoloc import …`.
+pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
+    println!("{}", ImportJob::from(args).run(ui)?);
     Ok(())
 }

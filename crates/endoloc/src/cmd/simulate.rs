@@ -1,15 +1,10 @@
 //! `endoloc simulate`: render a colonoscopy dataset with exact poses.
 
 use std::path::PathBuf;
-use std::sync::Mutex;
 
-use anyhow::{Context, Result, bail};
-use clap::ValueEnum;
-use endoloc_sim::colon::from_mesh::MeshColonConfig;
-use endoloc_sim::{Preset, Progress, SimConfig};
-use indicatif::ProgressBar;
-
-use crate::ui;
+use anyhow::Result;
+use endoloc_jobs::{Progress, SimulateJob};
+use endoloc_sim::SimConfig;
 
 /// Render a colonoscopy dataset (train and test passes through one colon) with exact 6-DoF
 /// poses, in endoloc's dataset format v1.
@@ -37,8 +32,9 @@ pub struct Args {
 
     /// Starting configuration: `small` (300 + 300 frames, 320×240, depth maps) or `paper`
     /// (2610 + 2603 frames, 640×480, as in the paper).
-    #[arg(long, value_enum, default_value = "small")]
-    preset: PresetArg,
+    #[arg(long, default_value_t = SimulateJob::default().preset,
+          value_parser = ["small", "paper"])]
+    preset: String,
 
     /// Full configuration from a TOML file (as printed by --print-config, or a dataset's
     /// dataset.toml to regenerate that dataset). Options given on the command line override it.
@@ -127,140 +123,52 @@ pub struct Args {
     force: bool,
 }
 
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum PresetArg {
-    Small,
-    Paper,
-}
-
 impl Args {
-    /// Raw arguments → a validated simulation config.
-    fn resolve(&self) -> Result<SimConfig> {
-        let mut cfg = match &self.config {
-            Some(file) => SimConfig::from_toml_file(file)?,
-            None => SimConfig::preset(match self.preset {
-                PresetArg::Small => Preset::Small,
-                PresetArg::Paper => Preset::Paper,
-            }),
+    /// The job; without --seed, a --config file keeps its own seed.
+    fn job(self) -> Result<SimulateJob> {
+        let seed = match (self.seed, &self.config) {
+            (Some(seed), _) => seed,
+            (None, Some(file)) => SimConfig::from_toml_file(file)?.seed,
+            (None, None) => SimulateJob::default().seed,
         };
-        if let Some(seed) = self.seed {
-            cfg = cfg.with_seed(seed);
-        }
-        if let Some(dir) = &self.gca {
-            cfg = cfg.with_mesh_colon(
-                MeshColonConfig::from_gca_folder(dir)
-                    .with_context(|| format!("reading GCA model folder {}", dir.display()))?,
-            );
-        }
-        if let (Some(mesh), Some(path)) = (&self.mesh, &self.path) {
-            cfg = cfg.with_mesh_colon(MeshColonConfig::new(
-                mesh.clone(),
-                path.clone(),
-                self.landmarks.clone(),
-            ));
-        }
-        if let Some(f) = self.inflation {
-            match &mut cfg.colon {
-                endoloc_sim::ColonSource::Mesh(m) => m.inflation = f,
-                endoloc_sim::ColonSource::Procedural(_) => {
-                    bail!("--inflation applies to a mesh colon (--gca or --mesh/--path)")
-                }
-            }
-        }
-        if let Some(n) = self.train_frames {
-            cfg.train.frames = n;
-        }
-        if let Some(n) = self.test_frames {
-            cfg.test.frames = n;
-        }
-        if let Some(f) = self.fps {
-            cfg.train.fps = f;
-            cfg.test.fps = f;
-        }
-        if let Some(w) = self.width {
-            cfg.camera.width = w;
-        }
-        if let Some(h) = self.height {
-            cfg.camera.height = h;
-        }
-        if let Some(f) = self.hfov {
-            cfg.camera.hfov_deg = f;
-        }
-        if self.depth {
-            cfg.depth = true;
-        }
-        if self.no_depth {
-            cfg.depth = false;
-        }
-        if let Some(n) = self.noise {
-            cfg.render.noise_sigma = n;
-        }
-        if let Some(n) = self.motion_blur {
-            cfg.render.motion_blur_samples = n;
-        }
-        if let Some(c) = self.clearance {
-            cfg.train.clearance_mm = c;
-            cfg.test.clearance_mm = c;
-        }
-        cfg.validate()?;
-        Ok(cfg)
+        let depth = match (self.depth, self.no_depth) {
+            (_, true) => Some(false),
+            (true, false) => Some(true),
+            (false, false) => None,
+        };
+        Ok(SimulateJob {
+            preset: self.preset,
+            config: self.config,
+            seed,
+            gca: self.gca,
+            mesh: self.mesh,
+            path: self.path,
+            landmarks: self.landmarks,
+            inflation: self.inflation,
+            train_frames: self.train_frames,
+            test_frames: self.test_frames,
+            fps: self.fps,
+            width: self.width,
+            height: self.height,
+            hfov: self.hfov,
+            depth,
+            noise: self.noise,
+            motion_blur: self.motion_blur,
+            clearance: self.clearance,
+            out: self.out.unwrap_or_default(),
+            force: self.force,
+        })
     }
 }
 
 /// Runs `endoloc simulate`.
-pub fn run(args: Args) -> Result<()> {
-    let cfg = args.resolve()?;
-    if args.print_config {
-        print!("{}", cfg.to_toml()?);
+pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
+    let print_config = args.print_config;
+    let job = args.job()?;
+    if print_config {
+        print!("{}", job.sim_config()?.to_toml()?);
         return Ok(());
     }
-    let Some(out) = args.out.as_ref() else {
-        bail!("--out is required");
-    };
-    let bar: Mutex<Option<ProgressBar>> = Mutex::new(None);
-    let progress = |event: Progress<'_>| {
-        let mut guard = bar.lock().unwrap_or_else(|e| e.into_inner());
-        match event {
-            Progress::Stage(stage) => eprintln!("preparing {stage}…"),
-            Progress::SequenceStarted { name, frames } => {
-                if let Some(old) = guard.take() {
-                    old.finish();
-                }
-                *guard = Some(ui::progress_bar(frames as u64, name));
-            }
-            Progress::FrameDone => {
-                if let Some(b) = guard.as_ref() {
-                    b.inc(1);
-                }
-            }
-        }
-    };
-    let summary = endoloc_sim::simulate(&cfg, out, args.force, &progress)
-        .with_context(|| format!("simulating into {}", out.display()))?;
-    if let Some(b) = bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
-        b.finish();
-    }
-    println!("dataset   {}", summary.dataset.display());
-    println!("colon     {}", summary.colon);
-    for (name, frames) in &summary.sequences {
-        println!("sequence  {name}: {frames} frames");
-    }
-    println!(
-        "camera    {}x{}, hfov {:.1}°, depth maps {}",
-        cfg.camera.width,
-        cfg.camera.height,
-        cfg.camera.hfov_deg,
-        if cfg.depth { "yes" } else { "no" }
-    );
-    println!(
-        "clearance min {:.2} mm from the wall",
-        summary.min_clearance_mm
-    );
-    println!(
-        "time      {:.1} s ({:.1} frames/s rendering + PNG, {} threads)",
-        summary.total_seconds,
-        summary.frames_per_second(),
-        rayon::current_num_threads()
-    );
+    println!("{}", job.run(ui)?);
     Ok(())
 }

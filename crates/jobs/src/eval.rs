@@ -1,0 +1,239 @@
+//! `EvalJob`: errors, plots and a report for an estimated trajectory.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use endoloc_data::read_tum;
+use endoloc_eval::align::AlignmentKind;
+use endoloc_eval::association::AssociationConfig;
+use endoloc_eval::rpe::RpeConfig;
+use endoloc_eval::{
+    EvalConfig, EvalInputs, Evaluation, Sources, WriteOptions, evaluate, read_frames_csv,
+    read_zones_csv, write_results,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Context, Result};
+use crate::progress::Progress;
+
+/// Evaluates an estimated trajectory against the ground truth (TUM files, `T_wc`, mm,
+/// associated by timestamp as evo does): APE, RPE, localized fraction, zone accuracy, per-zone
+/// and per-status tables. Writes `metrics.json`, `errors.csv`, `report.md` and the PNG plots
+/// into `out`; existing files are kept unless `force`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EvalJob {
+    /// Ground-truth trajectory of the test sequence (TUM).
+    pub gt: PathBuf,
+    /// Estimated trajectory (TUM).
+    pub est: PathBuf,
+    /// The run's `frames.csv` (`None`: `frames.csv` next to `est`, when it exists).
+    pub frames: Option<PathBuf>,
+    /// True zone of each test frame (CSV `frame,zone`); enables the zone accuracy.
+    pub gt_zones: Option<PathBuf>,
+    /// Output folder (empty: `eval/` next to `est`).
+    pub out: PathBuf,
+    /// Replace existing output files.
+    pub force: bool,
+    /// Alignment of the estimate onto the ground truth before the errors.
+    pub align: AlignmentKind,
+    /// Largest timestamp difference for associating poses, seconds.
+    pub t_max_diff: f64,
+    /// Offset added to the estimate's timestamps before associating, seconds.
+    pub t_offset: f64,
+    /// RPE pair distance, in associated poses.
+    pub rpe_delta: usize,
+    /// RPE over every pair (i, i + delta) instead of consecutive pairs.
+    pub rpe_all_pairs: bool,
+    /// Do not draw the PNG plots.
+    pub no_plots: bool,
+}
+
+impl Default for EvalJob {
+    fn default() -> Self {
+        let cfg = EvalConfig::default();
+        EvalJob {
+            gt: PathBuf::new(),
+            est: PathBuf::new(),
+            frames: None,
+            gt_zones: None,
+            out: PathBuf::new(),
+            force: false,
+            align: cfg.alignment,
+            t_max_diff: cfg.association.max_diff_s,
+            t_offset: cfg.association.offset_s,
+            rpe_delta: cfg.rpe.delta_frames,
+            rpe_all_pairs: cfg.rpe.all_pairs,
+            no_plots: false,
+        }
+    }
+}
+
+/// What `EvalJob` found and wrote.
+#[derive(Debug, Clone)]
+pub struct EvalReport {
+    /// Metrics (`evaluation.metrics`) and per-frame errors.
+    pub evaluation: Evaluation,
+    /// Every file written, in order.
+    pub files: Vec<PathBuf>,
+    /// The output folder.
+    pub out: PathBuf,
+}
+
+fn parent_or_dot(p: &Path) -> PathBuf {
+    match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+impl EvalJob {
+    /// The library configuration of this job.
+    pub fn eval_config(&self) -> EvalConfig {
+        EvalConfig {
+            association: AssociationConfig {
+                max_diff_s: self.t_max_diff,
+                offset_s: self.t_offset,
+            },
+            alignment: self.align,
+            rpe: RpeConfig {
+                delta_frames: self.rpe_delta,
+                all_pairs: self.rpe_all_pairs,
+            },
+        }
+    }
+
+    /// The output folder: `out`, or `eval/` next to `est`.
+    pub fn out_dir(&self) -> PathBuf {
+        if self.out.as_os_str().is_empty() {
+            parent_or_dot(&self.est).join("eval")
+        } else {
+            self.out.clone()
+        }
+    }
+
+    /// Evaluates and writes the results.
+    ///
+    /// # Errors
+    /// An unreadable input, trajectories that do not associate, or existing outputs without
+    /// `force`.
+    pub fn run(&self, progress: &dyn Progress) -> Result<EvalReport> {
+        let gt = read_tum(&self.gt).context("reading the ground truth (--gt)")?;
+        let est = read_tum(&self.est).context("reading the estimate (--est)")?;
+        let frames_path = self.frames.clone().or_else(|| {
+            let p = parent_or_dot(&self.est).join("frames.csv");
+            p.is_file().then(|| {
+                tracing::info!("using {}", p.display());
+                p
+            })
+        });
+        let frames = frames_path
+            .as_deref()
+            .map(read_frames_csv)
+            .transpose()
+            .context("reading frames.csv")?;
+        let zones = self
+            .gt_zones
+            .as_deref()
+            .map(read_zones_csv)
+            .transpose()
+            .context("reading the ground-truth zones (--gt-zones)")?;
+        let evaluation = evaluate(
+            &EvalInputs {
+                gt: &gt,
+                est: &est,
+                frames: frames.as_deref(),
+                gt_zones: zones.as_deref(),
+            },
+            &self.eval_config(),
+        )
+        .with_context(|| {
+            format!(
+                "evaluating {} against {}",
+                self.est.display(),
+                self.gt.display()
+            )
+        })?;
+        let out = self.out_dir();
+        let shown = |p: &Path| p.display().to_string();
+        let written = write_results(
+            &evaluation,
+            &out,
+            &WriteOptions {
+                force: self.force,
+                no_plots: self.no_plots,
+                plot: Default::default(),
+                sources: Sources {
+                    gt: shown(&self.gt),
+                    est: shown(&self.est),
+                    frames: frames_path.as_deref().map(shown),
+                    gt_zones: self.gt_zones.as_deref().map(shown),
+                },
+            },
+        )?;
+        if !self.no_plots && !written.plot_text {
+            progress.note("warning: no usable system font (fontconfig): plots drawn without text");
+        }
+        Ok(EvalReport {
+            evaluation,
+            files: written.files,
+            out,
+        })
+    }
+}
+
+impl fmt::Display for EvalReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = &self.evaluation.metrics;
+        writeln!(
+            f,
+            "frames {}  localized {} ({:.1} %)",
+            m.frames,
+            m.localized,
+            100.0 * m.localized_fraction
+        )?;
+        for (name, s) in [
+            ("position mm", &m.position_mm),
+            ("orientation °", &m.orientation_deg),
+        ] {
+            writeln!(
+                f,
+                "{name:>14}: mean {:.3}  median {:.3}  rmse {:.3}  p90 {:.3}  max {:.3}",
+                s.mean, s.median, s.rmse, s.p90, s.max
+            )?;
+        }
+        if let Some(r) = &m.rpe {
+            writeln!(
+                f,
+                "{:>14}: {:.3} mm  {:.3}° (rmse, delta {} frames)",
+                "RPE", r.translation_mm.rmse, r.rotation_deg.rmse, r.delta_frames
+            )?;
+        }
+        if let Some(acc) = m.zone_accuracy {
+            writeln!(f, "{:>14}: {:.1} %", "zone accuracy", 100.0 * acc)?;
+        }
+        write!(
+            f,
+            "wrote {} files to {}",
+            self.files.len(),
+            self.out.display()
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_library_defaults() {
+        assert_eq!(EvalJob::default().eval_config(), EvalConfig::default());
+        let from_toml: EvalJob = toml::from_str("").unwrap();
+        assert_eq!(from_toml, EvalJob::default());
+        let job = EvalJob {
+            est: "runs/a/trajectory.txt".into(),
+            ..EvalJob::default()
+        };
+        assert_eq!(job.out_dir(), PathBuf::from("runs/a/eval"));
+    }
+}

@@ -1,0 +1,351 @@
+//! `ImportJob`: a C3VD, SimCol3D or EndoSLAM recording as an endoloc dataset.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use endoloc_data::DataError;
+use endoloc_data::import::c3vd::{C3vdConfig, read_c3vd};
+use endoloc_data::import::endoslam::{EndoSlamConfig, Units, read_endoslam};
+use endoloc_data::import::simcol3d::{SimCol3dConfig, read_simcol3d};
+use endoloc_data::import::split::{parse_split, split_sequence};
+use endoloc_data::import::{ImportSummary, ImportedSequence, WriteImportConfig, write_import};
+use endoloc_geometry::{Camera, Distortion};
+use serde::{Deserialize, Serialize};
+
+use crate::bail;
+use crate::error::{Context, JobError, Result};
+use crate::progress::Progress;
+
+/// A source format of [`ImportJob`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ImportFormat {
+    /// A C3VD recording folder (`pose.txt`, `{n}_color.png`, optional depth TIFFs).
+    #[default]
+    C3vd,
+    /// A SimCol3D colon folder or one `Frames_S*` folder.
+    Simcol3d,
+    /// An EndoSLAM recording (UnityCam or ex-vivo); needs `units` and `camera`.
+    Endoslam,
+}
+
+impl ImportFormat {
+    /// Lower-case name, as on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            ImportFormat::C3vd => "c3vd",
+            ImportFormat::Simcol3d => "simcol3d",
+            ImportFormat::Endoslam => "endoslam",
+        }
+    }
+}
+
+/// Imports the recording `src` as an endoloc dataset in `out` (format v1: mm, `T_wc`, OpenCV
+/// camera axes, TUM `poses.txt`, PNG images, 16-bit depth PNG). One recording becomes the
+/// sequence `seq`; `split` cuts it into sequences, or `test` adds a second recording of the
+/// same colon as `test` (then `src` is `train`). An existing `out` is kept unless `force`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ImportJob {
+    /// Source format.
+    pub format: ImportFormat,
+    /// The recording folder.
+    pub src: PathBuf,
+    /// Output dataset folder.
+    pub out: PathBuf,
+    /// Replace an existing dataset at `out`.
+    pub force: bool,
+    /// Dataset name in `dataset.toml` (`None`: the output folder's name).
+    pub name: Option<String>,
+    /// Sequences by 0-based, end-exclusive frame ranges, e.g. `train:0..1500,test:1500..`.
+    pub split: Option<String>,
+    /// A second recording of the same colon, written as `test`.
+    pub test: Option<PathBuf>,
+    /// Sequence name for `src` when neither `split` nor `test` is given.
+    pub seq: String,
+    /// Frame rate for the time stamps where the source has none, frames per second.
+    pub fps: f64,
+    /// Import the depth maps (C3VD, SimCol3D).
+    pub depth: bool,
+    /// Camera `W,H,FX,FY,CX,CY` (C3VD also `…,K1,K2,K3,K4`, OpenCV fisheye); `None`: the
+    /// format's camera (required for EndoSLAM).
+    pub camera: Option<String>,
+    /// C3VD: resample through the fisheye model into a pinhole with the same intrinsics.
+    pub undistort: bool,
+    /// SimCol3D: trajectory suffix when the folder holds several (`S1`).
+    pub sequence: Option<String>,
+    /// EndoSLAM: length unit of the pose file, `mm`, `cm` or `m` (required).
+    pub units: Option<String>,
+    /// EndoSLAM: pose file, `.csv` or `.xlsx`.
+    pub poses: Option<PathBuf>,
+    /// EndoSLAM: worksheet of an `.xlsx` pose file.
+    pub sheet: Option<String>,
+    /// EndoSLAM: frames folder.
+    pub frames: Option<PathBuf>,
+    /// The command line recorded in `dataset.toml` (`None`: not recorded).
+    pub command: Option<String>,
+}
+
+impl Default for ImportJob {
+    fn default() -> Self {
+        let c3vd = C3vdConfig::default();
+        ImportJob {
+            format: ImportFormat::C3vd,
+            src: PathBuf::new(),
+            out: PathBuf::new(),
+            force: false,
+            name: None,
+            split: None,
+            test: None,
+            seq: "train".into(),
+            fps: c3vd.fps,
+            depth: c3vd.depth,
+            camera: None,
+            undistort: false,
+            sequence: None,
+            units: None,
+            poses: None,
+            sheet: None,
+            frames: None,
+            command: None,
+        }
+    }
+}
+
+/// What `ImportJob` wrote.
+#[derive(Debug, Clone)]
+pub struct ImportReport {
+    /// Source format.
+    pub format: ImportFormat,
+    /// Folder, camera and sequences written.
+    pub summary: ImportSummary,
+}
+
+/// Parses `W,H,FX,FY,CX,CY` (and, when `allow_fisheye`, 4 more fisheye coefficients).
+///
+/// # Errors
+/// A malformed list or a camera that does not validate.
+pub fn parse_camera(text: &str, allow_fisheye: bool) -> Result<Camera> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|s| {
+            s.trim()
+                .parse::<f64>()
+                .map_err(|e| JobError::Invalid(format!("--camera: {s:?} is not a number: {e}")))
+        })
+        .collect::<Result<_>>()?;
+    let distortion = match (v.len(), allow_fisheye) {
+        (6, _) => Distortion::None,
+        (10, true) => Distortion::Fisheye {
+            k1: v[6],
+            k2: v[7],
+            k3: v[8],
+            k4: v[9],
+        },
+        (n, true) => {
+            bail!("--camera: {n} values; expected W,H,FX,FY,CX,CY or W,H,FX,FY,CX,CY,K1,K2,K3,K4")
+        }
+        (n, false) => bail!("--camera: {n} values; expected W,H,FX,FY,CX,CY"),
+    };
+    let size = |x: f64, what: &str| -> Result<u32> {
+        if x.fract() != 0.0 || !(1.0..=100_000.0).contains(&x) {
+            bail!("--camera: {what} = {x}; expected a positive whole number of pixels");
+        }
+        Ok(x as u32)
+    };
+    let cam = Camera {
+        width: size(v[0], "W")?,
+        height: size(v[1], "H")?,
+        fx: v[2],
+        fy: v[3],
+        cx: v[4],
+        cy: v[5],
+        distortion,
+    };
+    cam.validate()
+        .map_err(|e| JobError::Invalid(format!("--camera: {e}")))?;
+    Ok(cam)
+}
+
+type Reader = Box<dyn Fn(&Path) -> Result<ImportedSequence, DataError>>;
+
+impl ImportJob {
+    /// The reader of this job's format, for `src` and `test`.
+    fn reader(&self) -> Result<Reader> {
+        let camera = |fisheye| self.camera.as_deref().map(|c| parse_camera(c, fisheye));
+        let first = self.src.clone();
+        Ok(match self.format {
+            ImportFormat::C3vd => {
+                let mut cfg = C3vdConfig {
+                    fps: self.fps,
+                    depth: self.depth,
+                    ..C3vdConfig::default()
+                };
+                if let Some(c) = camera(true) {
+                    cfg.camera = c?;
+                }
+                Box::new(move |p| read_c3vd(p, &cfg))
+            }
+            ImportFormat::Simcol3d => {
+                let mut cfg = SimCol3dConfig {
+                    fps: self.fps,
+                    sequence: self.sequence.clone(),
+                    depth: self.depth,
+                    ..SimCol3dConfig::default()
+                };
+                if let Some(c) = camera(false) {
+                    cfg.camera = c?;
+                }
+                // A test recording is usually another Frames_S* folder: its suffix comes
+                // from its own folder name, not from `sequence`.
+                let test_cfg = SimCol3dConfig {
+                    sequence: None,
+                    ..cfg.clone()
+                };
+                Box::new(move |p| read_simcol3d(p, if p == first { &cfg } else { &test_cfg }))
+            }
+            ImportFormat::Endoslam => {
+                let units = match self.units.as_deref() {
+                    Some("mm") => Units::Mm,
+                    Some("cm") => Units::Cm,
+                    Some("m") => Units::M,
+                    other => bail!("endoslam: units (--units) {other:?}; expected mm, cm or m"),
+                };
+                let cfg = EndoSlamConfig {
+                    camera: camera(false)
+                        .context("endoslam: the camera (--camera W,H,FX,FY,CX,CY) is required")??,
+                    units,
+                    poses: self.poses.clone(),
+                    sheet: self.sheet.clone(),
+                    frames: self.frames.clone(),
+                    fps: self.fps,
+                };
+                let test_cfg = EndoSlamConfig {
+                    poses: None,
+                    sheet: None,
+                    frames: None,
+                    ..cfg.clone()
+                };
+                Box::new(move |p| read_endoslam(p, if p == first { &cfg } else { &test_cfg }))
+            }
+        })
+    }
+
+    /// Reads the recording(s) and writes the dataset.
+    ///
+    /// # Errors
+    /// Invalid settings, an unreadable recording, an existing `out` without `force`, or a
+    /// failed write.
+    pub fn run(&self, _progress: &dyn Progress) -> Result<ImportReport> {
+        let format = self.format.name();
+        let read = self.reader()?;
+        let src = &self.src;
+        let main =
+            read(src).with_context(|| format!("reading {format} recording {}", src.display()))?;
+        let sequences = if let Some(spec) = &self.split {
+            let parts =
+                parse_split(spec).map_err(|e| JobError::Invalid(format!("--split: {e}")))?;
+            split_sequence(&main, &parts)?
+        } else if let Some(test) = &self.test {
+            let t = read(test)
+                .with_context(|| format!("reading {format} test recording {}", test.display()))?;
+            vec![("train".to_string(), main), ("test".to_string(), t)]
+        } else {
+            vec![(self.seq.clone(), main)]
+        };
+        let mut source = toml::Table::new();
+        source.insert("tool".into(), format!("endoloc import {format}").into());
+        source.insert("version".into(), env!("CARGO_PKG_VERSION").into());
+        source.insert("format".into(), format.into());
+        if let Some(command) = &self.command {
+            source.insert("command".into(), command.clone().into());
+        }
+        let mut recordings = vec![toml::Value::from(src.display().to_string())];
+        if let Some(t) = &self.test {
+            recordings.push(t.display().to_string().into());
+        }
+        source.insert("recordings".into(), toml::Value::Array(recordings));
+        let name = self.name.clone().unwrap_or_else(|| {
+            self.out.file_name().map_or_else(
+                || format!("{format} import"),
+                |n| n.to_string_lossy().into_owned(),
+            )
+        });
+        let summary = write_import(
+            &self.out,
+            &sequences,
+            &WriteImportConfig {
+                name,
+                undistort: self.undistort && self.format == ImportFormat::C3vd,
+                overwrite: self.force,
+                source,
+            },
+        )
+        .map_err(|e| JobError::Context {
+            context: match e {
+                DataError::AlreadyExists { .. } => {
+                    "not replacing it: add --force to overwrite".to_string()
+                }
+                _ => format!("writing {}", self.out.display()),
+            },
+            source: Box::new(e.into()),
+        })?;
+        for (_, s) in &sequences {
+            for n in &s.notes {
+                tracing::info!("{}: {n}", s.source.display());
+            }
+        }
+        Ok(ImportReport {
+            format: self.format,
+            summary,
+        })
+    }
+}
+
+impl fmt::Display for ImportReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = &self.summary;
+        let c = &s.camera;
+        write!(
+            f,
+            "imported {} into {}: camera {}x{} fx {} fy {} cx {} cy {}{}",
+            self.format.name(),
+            s.dir.display(),
+            c.width,
+            c.height,
+            c.fx,
+            c.fy,
+            c.cx,
+            c.cy,
+            if c.distortion.is_none() {
+                String::new()
+            } else {
+                format!(" {:?}", c.distortion)
+            }
+        )?;
+        for (name, frames, depth) in &s.sequences {
+            write!(
+                f,
+                "\n  {name}: {frames} frames{}",
+                if *depth { ", depth" } else { "" }
+            )?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_library_defaults() {
+        let from_toml: ImportJob = toml::from_str("").unwrap();
+        assert_eq!(from_toml, ImportJob::default());
+        let (c3vd, simcol) = (C3vdConfig::default(), SimCol3dConfig::default());
+        assert_eq!((simcol.fps, simcol.depth), (c3vd.fps, c3vd.depth));
+        assert_eq!(ImportJob::default().fps, c3vd.fps);
+        assert!(parse_camera("320,240,200,200,160,120", false).is_ok());
+        assert!(parse_camera("320,240,200,200,160,120,0,0,0,0", false).is_err());
+    }
+}

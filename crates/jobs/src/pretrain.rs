@@ -1,0 +1,323 @@
+//! `PretrainJob`: start weights for the zone classifier from simulated colons.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use endoloc_data::Dataset;
+use endoloc_net::pretrain::{PretrainColon, PretrainReport as JointReport, pretrain};
+use endoloc_net::train::{TrainConfig, TrainTarget};
+use endoloc_net::{InputSize, UniformBy, ZoneConfig};
+use serde::{Deserialize, Serialize};
+
+use crate::bail;
+use crate::error::{Context, JobError, Result};
+use crate::progress::Progress;
+use crate::simulate::{SimulateJob, SimulateReport};
+use crate::train::{TrainBars, TrainJob, TrainReport, pair_rule_from};
+
+/// Pretrains the zone classifier's network on `colons` simulated colons, each rendered with a
+/// training and a test pass (seeds `seed + 101·i`), and writes start weights for
+/// `TrainJob::pretrained` to `out/weights.safetensors`. Colon after colon, each starting
+/// from the previous one's weights, the network is trained with the test pass's frames in
+/// the zone of their nearest training pose; with `joint`, one network is trained on every
+/// colon at once instead. Writes `out/colon-SEED/` (datasets), `out/model-SEED/` (models; with
+/// `joint` one `out/joint/`); a colon or model already in `out` is reused.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PretrainJob {
+    /// Output folder.
+    pub out: PathBuf,
+    /// Number of simulated colons.
+    pub colons: usize,
+    /// Seed of the first colon; colon i has seed `seed + 101·i`.
+    pub seed: u64,
+    /// Simulator preset of the colons (`paper` or `small`).
+    pub preset: String,
+    /// Uniform zones of each colon's training pass.
+    pub zones: usize,
+    /// Training epochs per colon (`None`: the `fast` schedule's); with `joint`, the whole
+    /// training's (`None`: 60 per colon).
+    pub epochs: Option<usize>,
+    /// Training pairs: `zone` or `track` (`None`: the training default).
+    pub pairs: Option<String>,
+    /// Track pairs: fraction of negatives near the positive.
+    pub near_fraction: Option<f32>,
+    /// Start weights of the first colon (a `.safetensors` or `.pt` file, or `builtin`);
+    /// `None`: random weights.
+    pub pretrained: Option<String>,
+    /// Train one network on every colon at once.
+    pub joint: bool,
+    /// Track pairs: largest positive and smallest negative frame gap, `P,N`.
+    pub pair_frames: Option<String>,
+    /// Frames of each pass (`None`: the preset's).
+    pub frames: Option<usize>,
+    /// Frame rate of the simulated passes, frames per second (`None`: the preset's).
+    pub fps: Option<f64>,
+    /// Image size `WIDTHxHEIGHT`, pixels (`None`: the preset's).
+    pub size: Option<String>,
+    /// Replace an existing `out/weights.safetensors`.
+    pub force: bool,
+}
+
+impl Default for PretrainJob {
+    fn default() -> Self {
+        PretrainJob {
+            out: PathBuf::new(),
+            colons: 4,
+            seed: 101,
+            preset: "paper".into(),
+            zones: 50,
+            epochs: None,
+            pairs: None,
+            near_fraction: None,
+            pretrained: None,
+            joint: false,
+            pair_frames: None,
+            frames: None,
+            fps: None,
+            size: None,
+            force: false,
+        }
+    }
+}
+
+/// One colon of a pretraining: what was simulated and trained (`None`: reused).
+#[derive(Debug)]
+pub struct ColonReport {
+    /// The colon's seed.
+    pub seed: u64,
+    /// The simulation, when the colon was not reused.
+    pub simulated: Option<SimulateReport>,
+    /// The training, when the model was not reused (never with `joint`).
+    pub trained: Option<TrainReport>,
+}
+
+/// What `PretrainJob` did.
+#[derive(Debug)]
+pub struct PretrainReport {
+    /// Per colon, in order.
+    pub colons: Vec<ColonReport>,
+    /// The joint training, with `joint` (when not reused).
+    pub joint: Option<JointReport>,
+    /// The start weights written.
+    pub weights: PathBuf,
+}
+
+impl PretrainJob {
+    fn seed_of(&self, i: usize) -> u64 {
+        self.seed + 101 * i as u64
+    }
+
+    /// Folder of colon `i` (simulated) in `out`.
+    fn colon_dir(&self, i: usize) -> PathBuf {
+        self.out.join(format!("colon-{}", self.seed_of(i)))
+    }
+
+    /// Simulates, trains and writes the start weights.
+    ///
+    /// # Errors
+    /// No colon, an existing `out/weights.safetensors` without `force`, bad settings, or a
+    /// failed simulation, training or write.
+    pub fn run(&self, progress: &dyn Progress) -> Result<PretrainReport> {
+        if self.colons == 0 {
+            bail!("--colons 0: at least one colon is needed");
+        }
+        let weights = self.out.join("weights.safetensors");
+        crate::output::refuse_existing(&weights, self.force, "")?;
+        std::fs::create_dir_all(&self.out)
+            .with_context(|| format!("creating {}", self.out.display()))?;
+        let size = match &self.size {
+            Some(text) => {
+                let s: InputSize = text.parse().map_err(|e| {
+                    JobError::Invalid(format!("--size {text}: expected WIDTHxHEIGHT: {e}"))
+                })?;
+                Some((s.width, s.height))
+            }
+            None => None,
+        };
+        let mut previous: Option<PathBuf> = self.pretrained.as_ref().map(PathBuf::from);
+        let mut colons = Vec::with_capacity(self.colons);
+        for i in 0..self.colons {
+            let seed = self.seed_of(i);
+            let data = self.colon_dir(i);
+            let model = self.out.join(format!("model-{seed}"));
+            let title = format!("colon {} of {}", i + 1, self.colons);
+            let mut colon = ColonReport {
+                seed,
+                simulated: None,
+                trained: None,
+            };
+            if data.join("dataset.toml").is_file() {
+                progress.note(&format!("\n== {title}: reusing {}", data.display()));
+            } else {
+                progress.note(&format!("\n== {title}: simulate"));
+                let sim = SimulateJob {
+                    preset: self.preset.clone(),
+                    seed,
+                    out: data.clone(),
+                    force: true,
+                    train_frames: self.frames,
+                    test_frames: self.frames,
+                    fps: self.fps,
+                    width: size.map(|s| s.0),
+                    height: size.map(|s| s.1),
+                    ..SimulateJob::default()
+                };
+                colon.simulated = Some(sim.run(progress)?);
+            }
+            if !self.joint {
+                if model.join("weights.safetensors").is_file() {
+                    progress.note(&format!("== {title}: reusing {}", model.display()));
+                } else {
+                    progress.note(&format!("\n== {title}: train"));
+                    let train = TrainJob {
+                        data: data.clone(),
+                        zones: self.zones.to_string(),
+                        also_seq: vec!["test".into()],
+                        out: model.clone(),
+                        force: true,
+                        pretrained: previous.clone(),
+                        epochs: self.epochs,
+                        pairs: self.pairs.clone(),
+                        near_fraction: self.near_fraction,
+                        pair_frames: self.pair_frames.clone(),
+                        ..TrainJob::default()
+                    };
+                    colon.trained = Some(train.run(progress)?);
+                }
+                previous = Some(model.join("weights.safetensors"));
+            }
+            colons.push(colon);
+        }
+        let mut joint = None;
+        if self.joint {
+            let (w, report) = self.train_joint(progress)?;
+            previous = Some(w);
+            joint = report;
+        }
+        let last = previous.context("no colon was trained")?;
+        let tmp = self.out.join("weights.safetensors.partial");
+        std::fs::copy(&last, &tmp)
+            .with_context(|| format!("copying {} to {}", last.display(), tmp.display()))?;
+        std::fs::rename(&tmp, &weights)
+            .with_context(|| format!("renaming {} to {}", tmp.display(), weights.display()))?;
+        Ok(PretrainReport {
+            colons,
+            joint,
+            weights,
+        })
+    }
+
+    /// The joint training (`out/joint`, resumed when interrupted): its weights, and its report
+    /// unless reused.
+    fn train_joint(&self, progress: &dyn Progress) -> Result<(PathBuf, Option<JointReport>)> {
+        let dir = self.out.join("joint");
+        let weights = dir.join(endoloc_net::model::WEIGHTS_FILE);
+        if weights.is_file() {
+            progress.note(&format!("\n== joint training: reusing {}", dir.display()));
+            return Ok((weights, None));
+        }
+        let colons = (0..self.colons)
+            .map(|i| {
+                let ds = Dataset::open(&self.colon_dir(i))?;
+                Ok(PretrainColon {
+                    train: ds.sequence("train")?,
+                    passes: vec![ds.sequence("test")?.dir],
+                    camera: ds.meta.camera,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mut cfg = TrainConfig {
+            pretrained: self.pretrained.as_ref().map(PathBuf::from),
+            ..TrainConfig::default()
+        };
+        cfg.pairs = pair_rule_from(
+            self.pairs.as_deref(),
+            self.pair_frames.as_deref(),
+            self.near_fraction,
+            None,
+            cfg.pairs,
+        )?;
+        cfg.schedule.epochs = self.epochs.unwrap_or(60 * self.colons);
+        // Held-out frames against a database spread over every colon say little (the database
+        // must be sparse to be quick); what a pretraining is worth shows on a colon it never
+        // saw (train with 0 epochs from the weights, then classify).
+        cfg.validation.holdout_every = 0;
+        cfg.validate()?;
+        let zones = ZoneConfig::Uniform {
+            count: self.zones,
+            by: UniformBy::ArcLength,
+        };
+        progress.note(&format!(
+            "\n== joint training: {} colons at once, {} epochs of {} pairs → {}",
+            colons.len(),
+            cfg.schedule.epochs,
+            cfg.schedule.pairs_per_epoch,
+            dir.display()
+        ));
+        let target = TrainTarget {
+            dir: dir.clone(),
+            force: self.force,
+            resume: true,
+        };
+        let report = {
+            let mut bars = TrainBars::new(progress);
+            pretrain(&cfg, &zones, &colons, &target, &mut |p| bars.show(p))?
+        };
+        Ok((weights, Some(report)))
+    }
+}
+
+impl fmt::Display for PretrainReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for c in &self.colons {
+            if let Some(s) = &c.simulated {
+                writeln!(f, "{s}")?;
+            }
+            if let Some(t) = &c.trained {
+                writeln!(f, "{t}")?;
+            }
+        }
+        if let Some(r) = &self.joint {
+            writeln!(
+                f,
+                "joint     {} images from {} colons, {} steps in {:.0} s (loading {:.0} s), final loss {}",
+                r.images.iter().sum::<usize>(),
+                r.images.len(),
+                r.steps,
+                r.train_s,
+                r.load_s,
+                r.history
+                    .last()
+                    .map_or("-".into(), |e| format!("{:.4}", e.loss))
+            )?;
+        }
+        writeln!(f, "wrote     {}", self.weights.display())?;
+        write!(
+            f,
+            "next      endoloc train --data DATA --pretrained {} --out MODEL",
+            self.weights.display()
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_from_an_empty_file() {
+        let from_toml: PretrainJob = toml::from_str("").unwrap();
+        assert_eq!(from_toml, PretrainJob::default());
+        let job = PretrainJob {
+            out: "p".into(),
+            ..PretrainJob::default()
+        };
+        assert_eq!(job.colon_dir(1), Path::new("p/colon-202"));
+        assert_eq!(
+            TrainJob::default().zones,
+            "50",
+            "a colon's zones default to the training default"
+        );
+    }
+}
