@@ -22,6 +22,8 @@ pub mod output;
 pub mod progress;
 
 pub mod baselines;
+pub mod experiment;
+pub mod pipeline;
 pub mod classify;
 pub mod dataset;
 pub mod eval;
@@ -42,10 +44,9 @@ pub use features::{FeaturesJob, FeaturesReport};
 pub use import::{ImportFormat, ImportJob, ImportReport};
 pub use localize::{LocalizeJob, LocalizeMethod, LocalizeReport};
 pub use map::{MapJob, MapReport};
+pub use pipeline::{DemoJob, DemoReport, RunJob, Timings};
 pub use pretrain::{PretrainJob, PretrainReport};
 pub use progress::{Bar, Progress, Silent};
 pub use simulate::{SimulateJob, SimulateReport};
 pub use train::{TrainJob, TrainMethod, TrainReport};
-pub mod experiment;
-pub mod pipeline;
-pub use pipeline::{DemoJob, DemoReport, RunJob, Timings};
+

@@ -134,7 +134,7 @@ impl RunJob {
         crate::output::refuse_existing(&self.out, force, " (the results of this run)")?;
         create_dir(&self.out)?;
         let copy = self.out.join("experiment.toml");
-        endoloc_data::write_atomic(&copy, config_text.as_bytes())
+        endoloc_eval::write_atomic(&copy, config_text.as_bytes())
             .with_context(|| format!("writing {}", copy.display()))?;
         let mut t = Timings::default();
         let data = match (&self.data, &self.simulate) {
@@ -186,7 +186,7 @@ impl RunJob {
         };
         t.stage(progress, "eval", eval.command_line(), || eval.run(progress))?;
         let path = self.out.join("timings.csv");
-        endoloc_data::write_atomic(&path, t.csv().as_bytes())
+        endoloc_eval::write_atomic(&path, t.csv().as_bytes())
             .with_context(|| format!("writing {}", path.display()))?;
         Ok(t)
     }
@@ -404,6 +404,35 @@ impl LocalizeJob {
             .arg_if("neighbours", &self.neighbours, &d.neighbours)
             .flag("force", self.force)
             .finish()
+    }
+}
+
+impl SimulateJob {
+    /// The `endoloc simulate` command line of this job.
+    pub fn command_line(&self) -> String {
+        CommandLine::new("simulate")
+            .arg("preset", &self.preset)
+            .arg("seed", self.seed)
+            .opt("gca", self.gca.as_deref().map(show))
+            .path("out", &self.out)
+            .flag("force", self.force)
+            .finish()
+    }
+}
+
+impl EvalJob {
+    /// The `endoloc eval` command line of this job.
+    pub fn command_line(&self) -> String {
+        let line = CommandLine::new("eval")
+            .path("gt", &self.gt)
+            .path("est", &self.est)
+            .opt("frames", self.frames.as_deref().map(show));
+        let line = if self.out.as_os_str().is_empty() {
+            line
+        } else {
+            line.path("out", &self.out)
+        };
+        line.flag("force", self.force).finish()
     }
 }
 

@@ -1,7 +1,7 @@
 //! `PretrainJob`: start weights for the zone classifier from simulated colons.
 
 use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use endoloc_data::Dataset;
 use endoloc_net::pretrain::{PretrainColon, PretrainReport as JointReport, pretrain};
