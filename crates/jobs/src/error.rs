@@ -60,6 +60,21 @@ pub enum JobError {
 }
 
 impl JobError {
+    /// The message with every cause after it, `context: cause: …` (each cause once).
+    pub fn full_message(&self) -> String {
+        let mut text = self.to_string();
+        let mut next = std::error::Error::source(self);
+        while let Some(cause) = next {
+            let line = cause.to_string();
+            if !text.ends_with(&line) {
+                text.push_str(": ");
+                text.push_str(&line);
+            }
+            next = cause.source();
+        }
+        text
+    }
+
     /// An [`JobError::Io`] on `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         JobError::Io {

@@ -313,7 +313,7 @@ mod tests {
             out: "p".into(),
             ..PretrainJob::default()
         };
-        assert_eq!(job.colon_dir(1), Path::new("p/colon-202"));
+        assert_eq!(job.colon_dir(1), std::path::Path::new("p/colon-202"));
         assert_eq!(
             TrainJob::default().zones,
             "50",

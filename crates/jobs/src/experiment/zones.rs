@@ -438,7 +438,7 @@ mod tests {
         assert_eq!((back[0].zones, back[0].run, back[0].refined), (10, 1, 90));
         assert!((back[0].mean_position_mm - 2.5).abs() < 1e-9);
         std::fs::write(&p, format!("{HEADER}\n10,1,1,100\n")).unwrap();
-        let e = format!("{:#}", read_results(&p).unwrap_err());
+        let e = read_results(&p).unwrap_err().full_message();
         assert!(e.contains("line 2") && e.contains("expected 11"), "{e}");
     }
 }
