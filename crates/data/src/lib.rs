@@ -8,7 +8,7 @@ pub mod centerline;
 pub mod check;
 pub mod dataset;
 pub mod error;
-mod fsutil;
+pub mod fsutil;
 pub mod import;
 pub mod info;
 pub mod mesh;
@@ -24,6 +24,7 @@ pub use centerline::{
 pub use check::{CheckReport, Problem, check_dataset};
 pub use dataset::{Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, Sequence, SequenceWriter};
 pub use error::DataError;
+pub use fsutil::write_atomic;
 pub use info::{DatasetInfo, SequenceInfo, dataset_info};
 pub use mesh::{TriMesh, read_mesh};
 pub use png_io::{MAX_DEPTH_MM, depth_code_from_mm, depth_mm_from_code};
