@@ -112,7 +112,10 @@ mod tests {
         std::fs::create_dir(&target).unwrap();
         std::fs::write(target.join("keep.txt"), b"previous").unwrap();
         let err = write_atomic(&target, b"new").unwrap_err();
-        assert!(matches!(&err, DataError::Io { path, .. } if path == &target), "{err}");
+        assert!(
+            matches!(&err, DataError::Io { path, .. } if path == &target),
+            "{err}"
+        );
         assert_eq!(names(dir.path()), vec!["out".to_string()]);
         assert_eq!(std::fs::read(target.join("keep.txt")).unwrap(), b"previous");
 

@@ -3,6 +3,8 @@
 //!
 //! Conventions: lengths in millimetres, poses `T_wc` (camera-to-world), timestamps in seconds.
 
+#![warn(missing_docs)]
+
 pub mod anatomy;
 pub mod centerline;
 pub mod check;
