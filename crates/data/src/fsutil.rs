@@ -1,4 +1,4 @@
-//! Small file-system helpers: atomic writes and unique hidden sibling names.
+//! File-system helpers: [`write_atomic`], the one atomic file write of endoloc's crates.
 
 use crate::DataError;
 use std::fs::File;
@@ -32,11 +32,15 @@ pub(crate) fn parent_dir(path: &Path) -> PathBuf {
 }
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder is written,
-/// flushed to disk and renamed over `path`, so readers see either the old or the new file.
+/// flushed to disk and renamed over `path`, then the folder is flushed, so readers (and a
+/// crash) see either the old or the new file, never half of one.
+///
+/// On any error the temporary file is removed and an existing file at `path` is left as it
+/// was.
 ///
 /// # Errors
-/// [`DataError::Io`] naming the file that failed.
-pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DataError> {
+/// [`DataError::Io`] naming `path` (not the temporary file).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DataError> {
     let tmp = hidden_sibling(path, "tmp");
     let result = (|| {
         // Errors name the destination: the temporary name means nothing to a user.
@@ -73,4 +77,51 @@ pub(crate) fn read_text(path: &Path) -> Result<String, DataError> {
         let line = e.as_bytes()[..upto].iter().filter(|&&b| b == b'\n').count() + 1;
         DataError::parse(path, line, "invalid UTF-8; expected a text file")
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn write_atomic_replaces_the_file_and_leaves_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.txt");
+        write_atomic(&path, b"old").unwrap();
+        write_atomic(&path, b"new").unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"new");
+        assert_eq!(names(dir.path()), vec!["a.txt".to_string()]);
+    }
+
+    #[test]
+    fn failed_write_leaves_no_temporary_and_the_previous_file_intact() {
+        let dir = tempfile::tempdir().unwrap();
+        // The destination is a non-empty folder: the temporary file is written, the rename
+        // fails, and the temporary must be removed.
+        let target = dir.path().join("out");
+        std::fs::create_dir(&target).unwrap();
+        std::fs::write(target.join("keep.txt"), b"previous").unwrap();
+        let err = write_atomic(&target, b"new").unwrap_err();
+        assert!(
+            matches!(&err, DataError::Io { path, .. } if path == &target),
+            "{err}"
+        );
+        assert_eq!(names(dir.path()), vec!["out".to_string()]);
+        assert_eq!(std::fs::read(target.join("keep.txt")).unwrap(), b"previous");
+
+        // A missing folder: nothing is created at all.
+        let missing = dir.path().join("no-such-folder").join("a.txt");
+        assert!(write_atomic(&missing, b"x").is_err());
+        assert_eq!(names(dir.path()), vec!["out".to_string()]);
+    }
 }

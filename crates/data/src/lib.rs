@@ -3,12 +3,14 @@
 //!
 //! Conventions: lengths in millimetres, poses `T_wc` (camera-to-world), timestamps in seconds.
 
+#![warn(missing_docs)]
+
 pub mod anatomy;
 pub mod centerline;
 pub mod check;
 pub mod dataset;
 pub mod error;
-mod fsutil;
+pub mod fsutil;
 pub mod import;
 pub mod info;
 pub mod mesh;
@@ -24,6 +26,7 @@ pub use centerline::{
 pub use check::{CheckReport, Problem, check_dataset};
 pub use dataset::{Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, Sequence, SequenceWriter};
 pub use error::DataError;
+pub use fsutil::write_atomic;
 pub use info::{DatasetInfo, SequenceInfo, dataset_info};
 pub use mesh::{TriMesh, read_mesh};
 pub use png_io::{MAX_DEPTH_MM, depth_code_from_mm, depth_mm_from_code};

@@ -94,7 +94,9 @@ fn write_then_open_gives_the_same_dataset() {
         let q = seq.poses[i];
         assert!((p.timestamp_s - q.timestamp_s).abs() < 1e-6);
         assert!((p.pose.translation.vector - q.pose.translation.vector).amax() < 1e-9);
-        assert!(p.pose.rotation.angle_to(&q.pose.rotation) < 1e-9);
+        assert!(
+            endoloc_geometry::so3::geodesic_distance(&p.pose.rotation, &q.pose.rotation) < 1e-9
+        );
         assert_eq!(seq.load_rgb(i).unwrap().into_raw(), rgb(i));
         let (w, h, d) = seq.load_depth_mm(i).unwrap();
         assert_eq!((w, h), (W, H));

@@ -210,7 +210,10 @@ fn ex_vivo_poses_join_on_image_frame_with_the_given_units() {
             (f.pose.pose.translation.vector - 10.0 * t).norm() < 1e-9,
             "frame {i}"
         );
-        assert!(f.pose.pose.rotation.angle_to(&q) < 1e-9, "frame {i}");
+        assert!(
+            endoloc_geometry::so3::geodesic_distance(&f.pose.pose.rotation, &q) < 1e-9,
+            "frame {i}"
+        );
         assert!((f.pose.timestamp_s - i as f64 / 10.0).abs() < 1e-12);
     }
 

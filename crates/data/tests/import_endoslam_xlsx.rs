@@ -137,7 +137,10 @@ fn xlsx_poses_join_on_image_frame_with_the_given_units() {
                 p.translation.vector,
                 mm * t
             );
-            assert!(p.rotation.angle_to(&q) < 1e-12, "frame {i}");
+            assert!(
+                endoloc_geometry::so3::geodesic_distance(&p.rotation, &q) < 1e-12,
+                "frame {i}"
+            );
             assert!(p.rotation.w >= 0.0, "canonical quaternion");
             assert!((f.pose.timestamp_s - i as f64 / 10.0).abs() < 1e-12);
         }
@@ -383,7 +386,10 @@ fn reads_a_workbook_written_by_openpyxl() {
         let t = Vector3::new(1.5 * i as f64, -2.0, 10.0 + i as f64);
         assert!((p.translation.vector - t).norm() < 1e-12, "frame {i}");
         let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.1 * i as f64);
-        assert!(p.rotation.angle_to(&q) < 1e-12, "frame {i}");
+        assert!(
+            endoloc_geometry::so3::geodesic_distance(&p.rotation, &q) < 1e-12,
+            "frame {i}"
+        );
     }
     let m = read_endoslam(
         &src,

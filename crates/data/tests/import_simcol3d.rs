@@ -70,7 +70,7 @@ fn points_above_the_axis_project_to_the_upper_image() {
         assert!(px.x > cam.cx && px.y < cam.cy, "{px}");
         let closed =
             UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q.w, -q.i, q.j, -q.k));
-        assert!(p.rotation.angle_to(&closed) < 1e-9);
+        assert!(endoloc_geometry::so3::geodesic_distance(&p.rotation, &closed) < 1e-9);
     }
 }
 

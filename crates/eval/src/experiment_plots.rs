@@ -60,13 +60,8 @@ impl BoxStats {
             return None;
         }
         v.sort_by(f64::total_cmp);
-        let q = |p: f64| {
-            let pos = p * (v.len() - 1) as f64;
-            let (i, f) = (pos.floor() as usize, pos.fract());
-            let next = v[(i + 1).min(v.len() - 1)];
-            v[i] + f * (next - v[i])
-        };
-        let (q1, median, q3) = (q(0.25), q(0.5), q(0.75));
+        let q = |p: f64| crate::stats::percentile_sorted(&v, p);
+        let (q1, median, q3) = (q(25.0), q(50.0), q(75.0));
         let iqr = q3 - q1;
         let (fence_lo, fence_hi) = (q1 - 1.5 * iqr, q3 + 1.5 * iqr);
         let inside = v

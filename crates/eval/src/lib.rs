@@ -13,6 +13,8 @@
 //! position error `‖t_est − t_gt‖` mm, orientation error the geodesic angle of
 //! `R_estᵀ R_gt` in degrees.
 
+#![warn(missing_docs)]
+
 pub mod align;
 pub mod ape;
 pub mod association;
@@ -29,6 +31,9 @@ pub mod rpe;
 pub mod stats;
 pub mod write;
 pub mod zones_csv;
+
+#[cfg(test)]
+mod config_tests;
 
 pub use align::{AlignmentKind, Similarity3, align_trajectory, umeyama};
 pub use ape::{PoseRelation, ape_errors};

@@ -230,13 +230,6 @@ fn summary(pos: &[f64], rot: &[f64], what: &str) -> Result<ErrorSummary, EvalErr
     })
 }
 
-fn mean_median(v: &[f64]) -> (Option<f64>, Option<f64>) {
-    match Statistics::from_errors(v, "zone") {
-        Ok(s) => (Some(s.mean), Some(s.median)),
-        Err(_) => (None, None),
-    }
-}
-
 /// Evaluates a run.
 ///
 /// # Errors
@@ -405,8 +398,8 @@ pub fn evaluate(inputs: &EvalInputs<'_>, config: &EvalConfig) -> Result<Evaluati
         for (zone, fs) in groups {
             let p: Vec<f64> = fs.iter().filter_map(|f| f.position_mm).collect();
             let r: Vec<f64> = fs.iter().filter_map(|f| f.orientation_deg).collect();
-            let (pm, pmed) = mean_median(&p);
-            let (rm, rmed) = mean_median(&r);
+            let (pm, pmed) = crate::stats::mean_median(&p);
+            let (rm, rmed) = crate::stats::mean_median(&r);
             let acc = (src == ZoneSource::GroundTruth && inputs.frames.is_some()).then(|| {
                 fs.iter().filter(|f| f.zone == Some(zone)).count() as f64 / fs.len() as f64
             });

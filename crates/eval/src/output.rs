@@ -1,45 +1,24 @@
 //! Output files: atomic writes and the no-overwrite rule.
 //!
 //! Every file is written to a hidden temporary sibling, flushed, then renamed over its final
-//! name, so a reader (or a crash) never sees half a file. An output folder's existing files are
-//! only replaced when the caller asks (`--force`); the check covers every file of a run
-//! before the first one is written.
+//! name ([`write_atomic`]), so a reader (or a crash) never sees half a file. An output
+//! folder's existing files are only replaced when the caller asks (`--force`); the check
+//! covers every file of a run before the first one is written.
 
-use std::fs::File;
-use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::EvalError;
 
-static COUNTER: AtomicU64 = AtomicU64::new(0);
-
-/// Writes `bytes` to `path` atomically (temporary file in the same folder, flushed, renamed).
+/// Writes `bytes` to `path` atomically through [`endoloc_data::write_atomic`] (temporary file
+/// in the same folder, flushed, renamed, folder flushed; the temporary is removed on error).
 ///
 /// # Errors
-/// [`EvalError::Io`] naming the file that failed; the temporary file is removed.
+/// [`EvalError::Io`] naming the file that failed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), EvalError> {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let tmp_name = format!(".{name}.tmp-{}-{n}", std::process::id());
-    let tmp = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.join(tmp_name),
-        _ => PathBuf::from(tmp_name),
-    };
-    let result = (|| {
-        let mut f = File::create(&tmp).map_err(|e| EvalError::io(&tmp, e))?;
-        f.write_all(bytes).map_err(|e| EvalError::io(&tmp, e))?;
-        f.sync_all().map_err(|e| EvalError::io(&tmp, e))?;
-        drop(f);
-        std::fs::rename(&tmp, path).map_err(|e| EvalError::io(path, e))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    endoloc_data::write_atomic(path, bytes).map_err(|e| match e {
+        endoloc_data::DataError::Io { path, source } => EvalError::Io { path, source },
+        other => EvalError::Data(other),
+    })
 }
 
 /// Refuses to replace any of `paths` that already exists, unless `force`: call it for every

@@ -1,4 +1,5 @@
-//! Summary statistics of an error array, with evo's definitions.
+//! Summary statistics of an error array, with evo's definitions: the one place where
+//! endoloc-eval computes means, medians, percentiles and the like.
 //!
 //! - `mean`, `rmse = sqrt(mean(e²))`, `max`, `min`;
 //! - `median`: the middle value, or the mean of the two middle values (numpy `median`);
@@ -52,6 +53,73 @@ pub fn percentile_sorted(sorted: &[f64], q: f64) -> f64 {
     }
 }
 
+/// The `q`-th percentile (`q` in `[0, 100]`) of `values` in any order, numpy's default linear
+/// method; NaN for an empty slice.
+pub fn percentile(values: &[f64], q: f64) -> f64 {
+    percentile_sorted(&sorted(values), q)
+}
+
+/// `values` sorted ascending (total order: NaN last).
+fn sorted(values: &[f64]) -> Vec<f64> {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    v
+}
+
+/// The median of `sorted` (ascending): the middle value, or the mean of the two middle values
+/// for an even count; NaN for an empty slice.
+pub fn median_sorted(sorted: &[f64]) -> f64 {
+    let m = sorted.len();
+    if m == 0 {
+        f64::NAN
+    } else if m % 2 == 1 {
+        sorted[m / 2]
+    } else {
+        0.5 * (sorted[m / 2 - 1] + sorted[m / 2])
+    }
+}
+
+/// The median of `values` in any order ([`median_sorted`]); NaN for an empty slice.
+pub fn median(values: &[f64]) -> f64 {
+    median_sorted(&sorted(values))
+}
+
+/// The arithmetic mean; NaN for an empty slice.
+pub fn mean(values: &[f64]) -> f64 {
+    values.iter().sum::<f64>() / values.len() as f64
+}
+
+/// The root mean square `sqrt(mean(e²))`; NaN for an empty slice.
+pub fn rmse(values: &[f64]) -> f64 {
+    (values.iter().map(|e| e * e).sum::<f64>() / values.len() as f64).sqrt()
+}
+
+/// The population standard deviation `sqrt(mean((e − mean)²))` (ddof 0, as numpy and evo);
+/// NaN for an empty slice.
+pub fn std(values: &[f64]) -> f64 {
+    let m = mean(values);
+    (values.iter().map(|e| (e - m) * (e - m)).sum::<f64>() / values.len() as f64).sqrt()
+}
+
+/// The largest value; −∞ for an empty slice.
+pub fn max(values: &[f64]) -> f64 {
+    values.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// The smallest value; +∞ for an empty slice.
+pub fn min(values: &[f64]) -> f64 {
+    values.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+/// Mean and median of `values`, both `None` when `values` is empty or holds a non-finite
+/// value (as [`Statistics::from_errors`] would refuse it).
+pub fn mean_median(values: &[f64]) -> (Option<f64>, Option<f64>) {
+    match Statistics::from_errors(values, "values") {
+        Ok(s) => (Some(s.mean), Some(s.median)),
+        Err(_) => (None, None),
+    }
+}
+
 impl Statistics {
     /// Summarises `errors`.
     ///
@@ -70,27 +138,17 @@ impl Statistics {
                 errors[i]
             )));
         }
-        let n = errors.len() as f64;
-        let mean = errors.iter().sum::<f64>() / n;
-        let mean_sq = errors.iter().map(|e| e * e).sum::<f64>() / n;
-        let var = errors.iter().map(|e| (e - mean) * (e - mean)).sum::<f64>() / n;
-        let mut sorted = errors.to_vec();
-        sorted.sort_by(f64::total_cmp);
+        let sorted = sorted(errors);
         let m = sorted.len();
-        let median = if m % 2 == 1 {
-            sorted[m / 2]
-        } else {
-            0.5 * (sorted[m / 2 - 1] + sorted[m / 2])
-        };
         Ok(Self {
             count: m,
-            mean,
-            median,
-            rmse: mean_sq.sqrt(),
+            mean: mean(errors),
+            median: median_sorted(&sorted),
+            rmse: rmse(errors),
             p90: percentile_sorted(&sorted, 90.0),
             max: sorted[m - 1],
             min: sorted[0],
-            std: var.sqrt(),
+            std: std(errors),
         })
     }
 }
@@ -137,6 +195,22 @@ mod tests {
         ] {
             assert!((percentile_sorted(&a, q) - want).abs() < 1e-12, "q={q}");
         }
+    }
+
+    #[test]
+    fn free_functions_agree_with_statistics() {
+        let v = [4.0, 1.0, 3.0, 2.0, 10.0];
+        let s = Statistics::from_errors(&v, "x").unwrap();
+        assert_eq!(mean(&v), s.mean);
+        assert_eq!(median(&v), s.median);
+        assert_eq!(rmse(&v), s.rmse);
+        assert_eq!(std(&v), s.std);
+        assert_eq!(percentile(&v, 90.0), s.p90);
+        assert_eq!((min(&v), max(&v)), (s.min, s.max));
+        assert_eq!(mean_median(&v), (Some(s.mean), Some(s.median)));
+        assert_eq!(mean_median(&[]), (None, None));
+        assert_eq!(mean_median(&[1.0, f64::NAN]), (None, None));
+        assert!(mean(&[]).is_nan() && median(&[]).is_nan() && percentile(&[], 50.0).is_nan());
     }
 
     #[test]

@@ -23,6 +23,8 @@
 //! # Ok::<(), endoloc_features::FeatureError>(())
 //! ```
 
+#![warn(missing_docs)]
+
 pub mod config;
 mod descriptor;
 pub mod draw;
@@ -36,6 +38,9 @@ mod orientation;
 pub mod repeatability;
 pub mod texture;
 pub mod warp;
+
+#[cfg(test)]
+mod config_tests;
 
 pub use config::SurfConfig;
 pub use error::FeatureError;

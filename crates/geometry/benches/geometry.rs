@@ -5,7 +5,7 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use endoloc_geometry::synthetic::{PnpSceneConfig, perturb_pose, pnp_scene, standard_normal};
 use endoloc_geometry::{
-    Camera, LocalizeConfig, Observation, Pose, RansacConfig, RefineConfig, TriangulationConfig,
+    Camera, Observation, Pose, RansacConfig, RefineConfig, RegistrationConfig, TriangulationConfig,
     Triangulator, localize_pose, ransac_pnp, refine_pose,
 };
 use nalgebra::{Point3, Translation3, UnitQuaternion};
@@ -111,7 +111,7 @@ fn bench_ransac(c: &mut Criterion) {
         b.iter(|| ransac_pnp(black_box(&s.points_world), &s.pixels, &s.camera, &cfg))
     });
     let prior = perturb_pose(&s.t_wc, 30.0, 20.0, &mut ChaCha8Rng::seed_from_u64(2));
-    let lcfg = LocalizeConfig::new();
+    let lcfg = RegistrationConfig::new();
     c.bench_function(
         "localize_pose/200 corr, 30% outliers, prior 30°/20 mm",
         |b| {

@@ -21,15 +21,29 @@ pub enum Distortion {
     None,
     /// OpenCV's radial-tangential (Brown–Conrady) model, coefficients `k1 k2 p1 p2 k3`.
     RadialTangential {
+        /// First radial coefficient (r² term).
         k1: f64,
+        /// Second radial coefficient (r⁴ term).
         k2: f64,
+        /// First tangential coefficient.
         p1: f64,
+        /// Second tangential coefficient.
         p2: f64,
+        /// Third radial coefficient (r⁶ term); 0 when absent.
         #[serde(default)]
         k3: f64,
     },
     /// OpenCV's fisheye (equidistant) model: `θd = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸)`.
-    Fisheye { k1: f64, k2: f64, k3: f64, k4: f64 },
+    Fisheye {
+        /// θ² coefficient.
+        k1: f64,
+        /// θ⁴ coefficient.
+        k2: f64,
+        /// θ⁶ coefficient.
+        k3: f64,
+        /// θ⁸ coefficient.
+        k4: f64,
+    },
 }
 
 impl Distortion {

@@ -4,15 +4,16 @@
 //! `T_wc` (camera-to-world); OpenCV camera axes (x right, y down, z forward); pixel origin at
 //! the centre of the top-left pixel.
 
+#![warn(missing_docs)]
 // `!(x > limit)` is used on purpose throughout: it rejects NaN as well as small values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod camera;
 pub mod essential;
-pub mod localize;
 pub mod pnp;
 pub mod pose;
 pub mod refine_pose;
+pub mod registration;
 pub mod reprojection;
 pub mod rotation_mean;
 pub mod se3;
@@ -21,15 +22,18 @@ pub mod synthetic;
 pub mod triangulate;
 pub mod validity;
 
+#[cfg(test)]
+mod config_tests;
+
 pub use camera::{Camera, Distortion};
 pub use essential::{
     EssentialError, EssentialEstimate, EssentialRansacConfig, RecoveredPose, RelativePose,
     five_point, ransac_essential, ransac_essential_normalized, recover_pose, refine_relative_pose,
 };
-pub use localize::{Localization, LocalizeConfig, LocalizeError, localize_pose};
 pub use pnp::{RansacConfig, RansacError, RansacPose, ransac_pnp};
 pub use pose::{Pose, canonical_quaternion, orientation_error_deg, position_error_mm};
 pub use refine_pose::{PoseEstimate, RefineConfig, RefineError, RobustKernel, refine_pose};
+pub use registration::{Localization, RegistrationConfig, RegistrationError, localize_pose};
 pub use rotation_mean::{
     GeodesicMedianConfig, RotationMeanError, chordal_mean, geodesic_median, zone_median_pose,
 };

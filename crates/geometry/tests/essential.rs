@@ -179,7 +179,7 @@ fn pose_2_in_1_is_the_camera_to_world_pose_of_camera_2() {
     let x2_of_centre = s.r_21 * centre + s.t_21 * 12.0;
     assert!(x2_of_centre.norm() < 1e-9);
     let q = UnitQuaternion::from_rotation_matrix(&s.r_21.inverse());
-    assert!(t_wc2.rotation.angle_to(&q) < 1e-9);
+    assert!(endoloc_geometry::so3::geodesic_distance(&t_wc2.rotation, &q) < 1e-9);
 }
 
 #[test]

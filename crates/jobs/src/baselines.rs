@@ -74,7 +74,8 @@ pub fn train_regressor(
         cfg.schedule.epochs = e;
     }
     let loading = bar(progress, train.len() as u64, "load");
-    let set = TrainingSet::from_sequence(train, camera, cfg.backbone.input(), &mut |_| loading.inc(1))?;
+    let set =
+        TrainingSet::from_sequence(train, camera, cfg.backbone.input(), &mut |_| loading.inc(1))?;
     loading.finish_and_clear();
     let bar = bar(progress, 1, which.name());
     let t = Instant::now();
@@ -110,7 +111,9 @@ pub fn posenet(model: &Path, test: &Sequence, progress: &dyn Progress) -> Result
     let model = PoseNetModel::load(model)
         .with_context(|| format!("loading PoseNet model {}", model.display()))?;
     let t = Instant::now();
-    let poses = predict_batched(test, "posenet", progress, |imgs| Ok(model.predict_batch(imgs)?))?;
+    let poses = predict_batched(test, "posenet", progress, |imgs| {
+        Ok(model.predict_batch(imgs)?)
+    })?;
     Ok(Estimates {
         poses: poses.into_iter().map(Some).collect(),
         ms_per_frame: t.elapsed().as_secs_f64() * 1e3 / test.len().max(1) as f64,

@@ -4,8 +4,9 @@ use std::fmt::{self, Write as _};
 use std::path::PathBuf;
 use std::time::Instant;
 
+use endoloc_data::write_atomic;
 use endoloc_data::{Dataset, Sequence};
-use endoloc_eval::{refuse_existing, write_atomic};
+use endoloc_eval::refuse_existing;
 use endoloc_geometry::Status;
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{FrameResult, Localizer, LocalizerConfig};

@@ -101,8 +101,8 @@ impl From<std::io::Error> for JobError {
     }
 }
 
-impl From<endoloc_geometry::LocalizeError> for JobError {
-    fn from(e: endoloc_geometry::LocalizeError) -> Self {
+impl From<endoloc_geometry::RegistrationError> for JobError {
+    fn from(e: endoloc_geometry::RegistrationError) -> Self {
         JobError::Invalid(e.to_string())
     }
 }

@@ -4,7 +4,8 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use endoloc_eval::{refuse_existing, write_atomic};
+use endoloc_data::write_atomic;
+use endoloc_eval::refuse_existing;
 use endoloc_features::{Feature, Keypoint, SurfConfig, draw, io};
 use serde::{Deserialize, Serialize};
 

@@ -22,15 +22,15 @@ pub mod output;
 pub mod progress;
 
 pub mod baselines;
-pub mod experiment;
-pub mod pipeline;
 pub mod classify;
 pub mod dataset;
 pub mod eval;
+pub mod experiment;
 pub mod features;
 pub mod import;
 pub mod localize;
 pub mod map;
+pub mod pipeline;
 pub mod predict;
 pub mod pretrain;
 pub mod simulate;
@@ -49,4 +49,3 @@ pub use pretrain::{PretrainJob, PretrainReport};
 pub use progress::{Bar, Progress, Silent};
 pub use simulate::{SimulateJob, SimulateReport};
 pub use train::{TrainJob, TrainMethod, TrainReport};
-

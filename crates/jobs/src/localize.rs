@@ -13,8 +13,8 @@ use endoloc_net::ZoneClassifier;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::baselines::{self, Estimates};
 use crate::bail;
+use crate::baselines::{self, Estimates};
 use crate::error::{Context, JobError, Result};
 use crate::predict::predict_zones;
 use crate::progress::{Progress, bar};
@@ -221,7 +221,11 @@ impl LocalizeJob {
         let n = seq.len();
         let t = Instant::now();
         let frames = {
-            let bar = bar(progress, n as u64, if self.live { "live" } else { "localize" });
+            let bar = bar(
+                progress,
+                n as u64,
+                if self.live { "live" } else { "localize" },
+            );
             if self.live {
                 let mut state = localizer.live_state();
                 let mut out = Vec::with_capacity(n);
@@ -267,13 +271,14 @@ impl LocalizeJob {
                 .as_deref()
                 .with_context(|| format!("method {name} needs a model folder (--model)"))
         };
-        let classify = |dir: &Path| -> Result<(ZoneClassifier, Vec<endoloc_net::ZonePrediction>, f64)> {
-            let clf = ZoneClassifier::load(dir)
-                .with_context(|| format!("loading model {}", dir.display()))?;
-            clf.check_compatible(&camera)?;
-            let (preds, ms) = predict_zones(&clf, &seq, progress)?;
-            Ok((clf, preds, ms))
-        };
+        let classify =
+            |dir: &Path| -> Result<(ZoneClassifier, Vec<endoloc_net::ZonePrediction>, f64)> {
+                let clf = ZoneClassifier::load(dir)
+                    .with_context(|| format!("loading model {}", dir.display()))?;
+                clf.check_compatible(&camera)?;
+                let (preds, ms) = predict_zones(&clf, &seq, progress)?;
+                Ok((clf, preds, ms))
+            };
         let t = Instant::now();
         let est = match self.method {
             LocalizeMethod::Classify | LocalizeMethod::Retrieval => {
@@ -296,9 +301,10 @@ impl LocalizeJob {
             }
             LocalizeMethod::Posenet => baselines::posenet(model()?, &seq, progress)?,
             LocalizeMethod::Offsetnet => {
-                let reg = self.regressor.as_deref().context(
-                    "method offsetnet needs the OffsetNet model folder (--regressor)",
-                )?;
+                let reg = self
+                    .regressor
+                    .as_deref()
+                    .context("method offsetnet needs the OffsetNet model folder (--regressor)")?;
                 let refs = self.reference_seq.as_deref().context(
                     "method offsetnet needs the training sequence folder (--reference-seq)",
                 )?;
@@ -492,7 +498,12 @@ impl fmt::Display for LocalizeReport {
             )?;
             return write!(f, "wrote     {}/trajectory.txt", self.out.display());
         }
-        writeln!(f, "{}; {:.1} s wall", RunSummary::of(&self.frames), self.wall_s)?;
+        writeln!(
+            f,
+            "{}; {:.1} s wall",
+            RunSummary::of(&self.frames),
+            self.wall_s
+        )?;
         write!(
             f,
             "wrote     {}/trajectory.txt, frames.csv",

@@ -134,7 +134,7 @@ impl RunJob {
         crate::output::refuse_existing(&self.out, force, " (the results of this run)")?;
         create_dir(&self.out)?;
         let copy = self.out.join("experiment.toml");
-        endoloc_eval::write_atomic(&copy, config_text.as_bytes())
+        endoloc_data::write_atomic(&copy, config_text.as_bytes())
             .with_context(|| format!("writing {}", copy.display()))?;
         let mut t = Timings::default();
         let data = match (&self.data, &self.simulate) {
@@ -145,7 +145,9 @@ impl RunJob {
                     force,
                     ..sim.clone()
                 };
-                t.stage(progress, "simulate", job.command_line(), || job.run(progress))?;
+                t.stage(progress, "simulate", job.command_line(), || {
+                    job.run(progress)
+                })?;
                 job.out
             }
             (None, None) => bail!("give exactly one of `data` or a [simulate] table"),
@@ -157,7 +159,9 @@ impl RunJob {
             force,
             ..self.train.clone()
         };
-        t.stage(progress, "train", train.command_line(), || train.run(progress))?;
+        t.stage(progress, "train", train.command_line(), || {
+            train.run(progress)
+        })?;
         let map = MapJob {
             model: model.clone(),
             data: data.clone(),
@@ -186,7 +190,7 @@ impl RunJob {
         };
         t.stage(progress, "eval", eval.command_line(), || eval.run(progress))?;
         let path = self.out.join("timings.csv");
-        endoloc_eval::write_atomic(&path, t.csv().as_bytes())
+        endoloc_data::write_atomic(&path, t.csv().as_bytes())
             .with_context(|| format!("writing {}", path.display()))?;
         Ok(t)
     }
@@ -282,7 +286,9 @@ impl DemoJob {
             threshold: self.threshold,
             ..MapJob::default()
         };
-        t.stage(progress, "3/5 map", map.command_line(), || map.run(progress))?;
+        t.stage(progress, "3/5 map", map.command_line(), || {
+            map.run(progress)
+        })?;
         let localize = LocalizeJob {
             model: Some(p("model")),
             seq: p("data/test"),
@@ -300,7 +306,9 @@ impl DemoJob {
             out: p("run/eval"),
             ..EvalJob::default()
         };
-        t.stage(progress, "5/5 eval", eval.command_line(), || eval.run(progress))?;
+        t.stage(progress, "5/5 eval", eval.command_line(), || {
+            eval.run(progress)
+        })?;
         Ok(DemoReport {
             timings: t,
             report: p("run/eval/report.md"),
@@ -442,8 +450,8 @@ mod tests {
 
     #[test]
     fn run_tables_are_the_stage_jobs() {
-        let job = RunJob::from_toml("out = \"o\"\ndata = \"d\"\n[train]\npairs = \"track\"\n")
-            .unwrap();
+        let job =
+            RunJob::from_toml("out = \"o\"\ndata = \"d\"\n[train]\npairs = \"track\"\n").unwrap();
         assert_eq!(job.train.pairs.as_deref(), Some("track"));
         let job = RunJob::from_toml("out = \"o\"\ndata = \"d\"\n").unwrap();
         assert_eq!(job.train, TrainJob::default());

@@ -11,8 +11,8 @@ use endoloc_net::train::{Phase, Schedule, TrainConfig, TrainProgress, TrainTarge
 use endoloc_net::{AugmentConfig, PairRule, UniformBy, ZoneConfig, ZoneTable};
 use serde::{Deserialize, Serialize};
 
-use crate::baselines::{Regressor, train_regressor};
 use crate::bail;
+use crate::baselines::{Regressor, train_regressor};
 use crate::error::{Context, Result};
 use crate::progress::Progress;
 
@@ -260,11 +260,11 @@ impl TrainJob {
     /// # Errors
     /// An unreadable config file or a bad value, named as its command-line option.
     pub fn train_config(&self) -> Result<TrainConfig> {
-            let args = self;
+        let args = self;
         let mut cfg = match &args.config {
             Some(p) => {
-                let text =
-                    std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+                let text = std::fs::read_to_string(p)
+                    .with_context(|| format!("reading {}", p.display()))?;
                 toml::from_str::<TrainConfig>(&text).with_context(|| format!("{}", p.display()))?
             }
             None => TrainConfig {
@@ -343,13 +343,13 @@ impl TrainJob {
         Ok(cfg)
     }
 
-        /// Trains and writes the model folder.
-        ///
-        /// # Errors
-        /// An existing model folder without `force`, an unreadable dataset, a bad setting, or a
-        /// failed training or write.
-        pub fn run(&self, progress: &dyn Progress) -> Result<TrainReport> {
-            let args = self;
+    /// Trains and writes the model folder.
+    ///
+    /// # Errors
+    /// An existing model folder without `force`, an unreadable dataset, a bad setting, or a
+    /// failed training or write.
+    pub fn run(&self, progress: &dyn Progress) -> Result<TrainReport> {
+        let args = self;
         if args.method != TrainMethod::Siamese {
             let which = if args.method == TrainMethod::Posenet {
                 Regressor::PoseNet
@@ -432,13 +432,17 @@ impl TrainJob {
             seconds: t0.elapsed().as_secs_f64(),
             report,
         })))
-        }
+    }
 }
 
 impl fmt::Display for TrainReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let r = match self {
-            TrainReport::Regressor { which, seconds, out } => {
+            TrainReport::Regressor {
+                which,
+                seconds,
+                out,
+            } => {
                 return write!(
                     f,
                     "trained   {} in {seconds:.0} s → {}",
@@ -525,7 +529,8 @@ impl<'a> TrainBars<'a> {
             let val = p
                 .val_accuracy
                 .map_or(String::new(), |a| format!(" val {:.1}%", 100.0 * a));
-            self.sink.message(&format!("ep {} loss {loss}{val}", p.epoch));
+            self.sink
+                .message(&format!("ep {} loss {loss}{val}", p.epoch));
         }
     }
 }

@@ -10,10 +10,15 @@
 //! Conventions: mm; poses `T_wc`; OpenCV camera axes; pixels with the origin at the centre of
 //! the top-left pixel.
 
+#![warn(missing_docs)]
+
 pub mod export;
 pub mod map;
 pub mod map_io;
 pub mod pipeline;
+
+#[cfg(test)]
+mod config_tests;
 
 pub use map::{DEFAULT_MAP_THRESHOLD, Map, MapConfig, MapPoint, MapSummary, ZoneMap, build_map};
 pub use pipeline::{FrameResult, LiveState, Localizer, LocalizerConfig, RetryFeatures, StageTimes};

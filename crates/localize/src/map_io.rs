@@ -7,7 +7,7 @@
 //! descriptor `f32`…, observation count `u32` + (frame `u32`, `u` `f64`, `v` `f64`)….
 //! Written to a temporary file and renamed.
 
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::Path;
 
 use endoloc_geometry::Camera;
@@ -203,14 +203,11 @@ fn put_u32(buf: &mut Vec<u8>, v: u32) {
     buf.extend_from_slice(&v.to_le_bytes());
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+/// Writes `bytes` to `path` through [`endoloc_data::write_atomic`] (temporary file in the same
+/// folder, flushed, renamed, folder flushed; the temporary is removed on error).
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), LocalizeError> {
-    let tmp = path.with_extension(format!(
-        "{}.tmp",
-        path.extension().and_then(|e| e.to_str()).unwrap_or("")
-    ));
-    let mut f = std::fs::File::create(&tmp).map_err(|e| file_err(&tmp, e))?;
-    f.write_all(bytes).map_err(|e| file_err(&tmp, e))?;
-    f.sync_all().map_err(|e| file_err(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| file_err(path, e))
+    endoloc_data::write_atomic(path, bytes).map_err(|e| match e {
+        endoloc_data::DataError::Io { path, source } => file_err(&path, source),
+        other => file_err(path, other),
+    })
 }

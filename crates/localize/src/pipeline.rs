@@ -18,7 +18,7 @@ use std::borrow::Cow;
 use std::time::Instant;
 
 use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
-use endoloc_geometry::{Camera, LocalizeConfig, Pose, Reason, Status, localize_pose};
+use endoloc_geometry::{Camera, Pose, Reason, RegistrationConfig, Status, localize_pose};
 use endoloc_net::{TemporalConfig, TemporalFilter, TrackFilter, ZoneClassifier, ZonePrediction};
 use nalgebra::{Point2, Point3};
 use serde::{Deserialize, Serialize};
@@ -39,7 +39,7 @@ pub struct LocalizerConfig {
     /// Map points also come from this many zones on each side of the classified one.
     pub neighbour_zones: usize,
     /// Gauss-Newton, RANSAC restart and validity thresholds.
-    pub localize: LocalizeConfig,
+    pub localize: RegistrationConfig,
     /// Zone-level HMM for `--live` when a prediction carries no descriptor (the track filter,
     /// with the model's parameters, is used otherwise).
     pub temporal: TemporalConfig,
@@ -74,7 +74,7 @@ impl Default for LocalizerConfig {
             surf: None,
             matcher: MatcherConfig::default(),
             neighbour_zones: 1,
-            localize: LocalizeConfig::new(),
+            localize: RegistrationConfig::new(),
             temporal: TemporalConfig::default(),
             candidate_zones: 3,
             track_frames: 5,

@@ -132,7 +132,7 @@ fn predict(zone: usize) -> ZonePrediction {
 
 fn position_error_mm(r: &FrameResult, gt: &Pose) -> f64 {
     let p = r.t_wc.expect("a refined frame has a pose");
-    (p.translation.vector - gt.translation.vector).norm()
+    endoloc_geometry::position_error_mm(&p, gt)
 }
 
 #[test]
@@ -197,7 +197,7 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
     };
     let run_live = |track_frames: usize| -> (usize, Vec<f64>) {
         let loc = localizer(
-            &f,
+            f,
             LocalizerConfig {
                 track_frames,
                 candidate_zones: 1,
@@ -209,11 +209,11 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
         let mut refined_late = 0;
         let mut last_refined: Option<(Pose, usize)> = None;
         let mut errs = Vec::new();
-        for i in 0..live_frames {
+        for (i, frame_features) in features.iter().enumerate().take(live_frames) {
             let r = loc
                 .localize_live_features(
                     &mut state,
-                    &features[i],
+                    frame_features,
                     None,
                     &predict(wrong(i)),
                     StageTimes::default(),

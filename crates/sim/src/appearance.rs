@@ -185,9 +185,9 @@ impl MucosaAtlas {
                     let a = (look.vessel_strength * vessel * c).min(1.0);
                     let m = 1.0 + look.mottle * c * mottle;
                     let mut rgb = [0f32; 3];
-                    for k in 0..3 {
+                    for (k, out) in rgb.iter_mut().enumerate() {
                         let base = (look.base[k] * m).clamp(0.0, 1.0);
-                        rgb[k] = base * (1.0 - a) + look.vessel[k] * a;
+                        *out = base * (1.0 - a) + look.vessel[k] * a;
                     }
                     let relief = relief_noise.fbm(s / 1.2, v / 1.2, circumference / 1.2, 2);
                     let height = 0.5 + 0.35 * relief * c.max(0.3) as f64 + 0.15 * vessel as f64;

@@ -10,6 +10,10 @@
 //! Conventions: mm; poses `T_wc`; OpenCV camera axes; pixel origin at the top-left pixel's
 //! centre.
 
+#![warn(missing_docs)]
+// `!(x > limit)` is used on purpose: it rejects NaN as well as small values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod appearance;
 pub mod centerline;
 pub mod colon;
@@ -17,6 +21,9 @@ pub mod config;
 pub mod render;
 pub mod simulate;
 pub mod trajectory;
+
+#[cfg(test)]
+mod config_tests;
 
 pub use config::{CameraConfig, ColonSource, Preset, SimConfig};
 pub use simulate::{Progress, SimSummary, simulate};

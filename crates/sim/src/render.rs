@@ -400,8 +400,8 @@ impl<'a> Renderer<'a> {
             if bump > 0.0 && tri_data.has_frame {
                 // Height gradient per mm along each unit surface direction.
                 let (a, b) = (bump_k * gs * tri_data.inv_ls, bump_k * gt * tri_data.inv_lt);
-                for c in 0..3 {
-                    n[c] -= a * tri_data.dir_s[c] + b * tri_data.dir_t[c];
+                for (c, nc) in n.iter_mut().enumerate() {
+                    *nc -= a * tri_data.dir_s[c] + b * tri_data.dir_t[c];
                 }
                 n = normalize(n);
             }
@@ -418,8 +418,8 @@ impl<'a> Renderer<'a> {
             }
             let spec = specular * spec * irradiance;
             let diffuse = ndl * irradiance + ambient;
-            for c in 0..3 {
-                scratch.linear[3 * i + c] += weight * (tex[c] * diffuse + spec);
+            for (c, t) in tex.iter().take(3).enumerate() {
+                scratch.linear[3 * i + c] += weight * (t * diffuse + spec);
             }
         }
     }
@@ -436,7 +436,7 @@ impl<'a> Renderer<'a> {
             } else {
                 0
             };
-            for c in 0..3 {
+            for (c, out) in px.iter_mut().enumerate() {
                 let x = scratch.linear[3 * i + c] * v;
                 // Soft shoulder: linear near 0, saturating smoothly towards 1.
                 let y = x * (1.0 + x * 0.25) / (1.0 + x);
@@ -452,7 +452,7 @@ impl<'a> Renderer<'a> {
                 } else {
                     g
                 };
-                px[c] = (g + 0.5).clamp(0.0, 255.0) as u8; // round half up, no libm call
+                *out = (g + 0.5).clamp(0.0, 255.0) as u8; // round half up, no libm call
             }
         }
         out

@@ -19,7 +19,12 @@ pub enum Progress<'a> {
     /// A preparation stage started (colon, texture, passes).
     Stage(&'a str),
     /// Rendering of a sequence started, with its frame count.
-    SequenceStarted { name: &'a str, frames: usize },
+    SequenceStarted {
+        /// The sequence's name (its folder in the dataset).
+        name: &'a str,
+        /// Number of frames it will have.
+        frames: usize,
+    },
     /// One more frame of the current sequence is on disk.
     FrameDone,
 }

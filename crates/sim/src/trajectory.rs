@@ -210,11 +210,10 @@ impl<'a> PassGenerator<'a> {
         let total: f64 = w[..n - 1].iter().sum();
         let mut s_frames = Vec::with_capacity(n);
         let mut acc = 0.0;
-        for k in 0..n {
+        s_frames.push(s0 + (s1 - s0) * (acc / total).min(1.0));
+        for wk in &w[..n - 1] {
+            acc += wk;
             s_frames.push(s0 + (s1 - s0) * (acc / total).min(1.0));
-            if k < n - 1 {
-                acc += w[k];
-            }
         }
         let lateral = (
             Wave::new(&mut rng, 0.03, 0.3),

@@ -28,10 +28,15 @@
 //! # Ok::<(), endoloc_vo::VoError>(())
 //! ```
 
+#![warn(missing_docs)]
+
 pub mod align;
 pub mod config;
 mod error;
 pub mod odometry;
+
+#[cfg(test)]
+mod config_tests;
 
 pub use align::{SegmentAlignment, VoReport, align_segments, report};
 pub use config::VoConfig;

@@ -15,7 +15,7 @@
 //!    reference.
 //! 3. **Tracking.** Each frame's descriptors are matched to the local map points (mutual
 //!    nearest neighbours with the ratio test), the pose comes from RANSAC P3P
-//!    ([`endoloc_geometry::ransac_pnp`]) and Gauss-Newton ([`endoloc_geometry::refine_pose`]),
+//!    ([`endoloc_geometry::ransac_pnp`]) and Gauss-Newton ([`endoloc_geometry::refine_pose()`]),
 //!    and inlier map points take the frame's descriptor (appearance changes slowly along a
 //!    pass).
 //! 4. **Keyframes.** After [`VoConfig::keyframe_max_gap`] frames, or when the inliers drop

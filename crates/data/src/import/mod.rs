@@ -10,7 +10,7 @@
 //!
 //! Every reader returns an [`ImportedSequence`] (image files, optional depth files and converted
 //! poses, in frame order); [`write_import`] then writes the dataset through
-//! [`DatasetWriter`](crate::DatasetWriter), which never overwrites an existing folder unless
+//! [`DatasetWriter`], which never overwrites an existing folder unless
 //! asked to.
 
 pub mod c3vd;

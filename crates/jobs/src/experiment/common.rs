@@ -10,10 +10,11 @@ use crate::bail;
 use crate::error::{Context, Result};
 use crate::note;
 use crate::progress::{Progress, bar};
+use endoloc_data::write_atomic;
 use endoloc_data::{Dataset, Sequence, StampedPose};
 use endoloc_eval::{
     Block, EvalConfig, EvalInputs, FrameRecord, MethodBar, Sources, WriteOptions, evaluate,
-    write_atomic, write_frames_csv,
+    write_frames_csv,
 };
 use endoloc_features::{Feature, SurfConfig};
 use endoloc_geometry::{Pose, Status};
@@ -25,7 +26,6 @@ pub(super) use crate::predict::predict_zones;
 use crate::{MapJob, TrainJob};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-
 
 /// Where an experiment's data is.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -448,10 +448,8 @@ pub(super) fn write_and_evaluate(
         })
         .collect();
     endoloc_data::write_tum(&dir.join("trajectory.txt"), &est)?;
-    let frames: Option<Vec<FrameRecord>> = out
-        .results
-        .as_deref()
-        .map(crate::localize::frame_records);
+    let frames: Option<Vec<FrameRecord>> =
+        out.results.as_deref().map(crate::localize::frame_records);
     if let Some(f) = &frames {
         write_frames_csv(&dir.join("frames.csv"), f)?;
     }

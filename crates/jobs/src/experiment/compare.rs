@@ -8,13 +8,13 @@ use endoloc_localize::map_io::load_map;
 use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
 
-use crate::progress::Progress;
-use crate::note;
 use super::common::{
     self, Data, DataArgs, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
     ensure_model, predict_zones, run_endoloc, write_and_evaluate,
 };
 use crate::baselines::{self, Regressor};
+use crate::note;
+use crate::progress::Progress;
 
 /// Compare every method on one dataset: our two-step method (per frame as in the paper,
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -284,7 +284,9 @@ impl Ctx<'_> {
             self.preds()?;
             let features = FeatureCache::get(&mut self.features, &self.data.test, &surf, progress)?;
             let (preds, zone_ms) = self.preds.as_ref().context("zone predictions")?;
-            let results = run_endoloc(self.model, features, preds, *zone_ms, choice, candidates, progress)?;
+            let results = run_endoloc(
+                self.model, features, preds, *zone_ms, choice, candidates, progress,
+            )?;
             return Ok(MethodOutput::from_results(
                 &m.name(),
                 m.description(),
@@ -338,8 +340,8 @@ impl Ctx<'_> {
                                 self.epochs,
                                 self.seed,
                                 false,
- progress,
-)?;
+                                progress,
+                            )?;
                         }
                         if which == Regressor::PoseNet {
                             baselines::posenet(&dir, test, progress)?
@@ -371,7 +373,8 @@ impl Ctx<'_> {
 
 fn print_row(r: &MethodRow, progress: &dyn Progress) {
     let f = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.2}"));
-    note!(progress, 
+    note!(
+        progress,
         "{:<16} mean {} mm / {}°, median {} mm / {}°, localized {:.1} %{}, {:.1} ms/frame",
         r.method,
         f(r.mean_position_mm),
@@ -463,8 +466,11 @@ fn write_outputs(
             .join(&r.method)
             .join("eval/trajectory_xy.png");
         if p.is_file()
-            && let Some(b) =
-                common::image_block(&p, &format!("{}: trajectory, X-Y plane", r.method), progress)
+            && let Some(b) = common::image_block(
+                &p,
+                &format!("{}: trajectory, X-Y plane", r.method),
+                progress,
+            )
         {
             html.push(b);
         }
@@ -473,7 +479,8 @@ fn write_outputs(
         .push(endoloc_eval::Block::Code(toml::to_string_pretty(saved)?));
     common::write_text(&out.join("report.html"), &html.render())?;
     note!(progress, "\n{table}");
-    note!(progress, 
+    note!(
+        progress,
         "wrote     {}/compare.md, compare.json, compare.png, report.html",
         out.display()
     );

@@ -11,12 +11,12 @@ use endoloc_net::ZoneClassifier;
 
 use serde::{Deserialize, Serialize};
 
-use crate::progress::Progress;
-use crate::note;
 use super::common::{
     self, Data, DataArgs, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
     ensure_model, predict_zones, run_endoloc, write_and_evaluate,
 };
+use crate::note;
+use crate::progress::Progress;
 
 /// Anatomical ("expert") zones against uniform ones: train one model on the sections of
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -133,14 +133,22 @@ impl ExpertJob {
                     epochs: args.epochs,
                     seed: args.seed,
                 },
- progress,
-)?;
+                progress,
+            )?;
             ensure_map(&model, &data, args.threshold, &[], progress)?;
             let classifier = ZoneClassifier::load(&model)?;
             let surf = load_map(&model)?.config.surf.clone();
             let cache = FeatureCache::get(&mut features, &data.test, &surf, progress)?;
             let (preds, zone_ms) = predict_zones(&classifier, &data.test, progress)?;
-            let results = run_endoloc(&model, cache, &preds, zone_ms, ZoneChoice::PerFrame, 3, progress)?;
+            let results = run_endoloc(
+                &model,
+                cache,
+                &preds,
+                zone_ms,
+                ZoneChoice::PerFrame,
+                3,
+                progress,
+            )?;
             let out = MethodOutput::from_results(name, description, results);
             let row = write_and_evaluate(&args.out.join("runs").join(name), &data.test, &out)?;
             rows.push(row);
@@ -169,7 +177,8 @@ impl ExpertJob {
         }
         common::write_text(&args.out.join("report.html"), &html.render())?;
         note!(progress, "\n{table}");
-        note!(progress, 
+        note!(
+            progress,
             "wrote     {}/expert.md, expert.json, expert.png, report.html",
             args.out.display()
         );

@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use crate::error::{Context, Result};
+use endoloc_eval::stats::mean_median;
 use endoloc_eval::{CurvePoint, HtmlReport, PlotConfig, plot_error_curve};
 use endoloc_geometry::Status;
 use endoloc_localize::map_io::load_map;
@@ -13,11 +14,11 @@ use endoloc_net::ZoneClassifier;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::progress::{Progress, bar};
-use crate::note;
 use super::common::{
     self, Data, DataArgs, FeatureCache, TrainSpec, ensure_map, ensure_model, pose_error,
 };
+use crate::note;
+use crate::progress::{Progress, bar};
 
 /// Force the zone of each test frame to k ± e (k: its true zone, from the ground-truth pose)
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -79,21 +80,6 @@ struct Row {
     refined_mean_position_mm: Option<f64>,
 }
 
-fn mean_median(v: &mut [f64]) -> (Option<f64>, Option<f64>) {
-    if v.is_empty() {
-        return (None, None);
-    }
-    v.sort_by(f64::total_cmp);
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    let n = v.len();
-    let median = if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    };
-    (Some(mean), Some(median))
-}
-
 impl PerturbJob {
     /// Runs the experiment.
     ///
@@ -115,8 +101,8 @@ impl PerturbJob {
                 epochs: args.epochs,
                 seed: args.seed,
             },
- progress,
-)?;
+            progress,
+        )?;
         ensure_map(&model, &data, args.threshold, &[], progress)?;
         let classifier = ZoneClassifier::load(&model)?;
         let map = load_map(&model)?;
@@ -142,7 +128,11 @@ impl PerturbJob {
         let features = FeatureCache::extract(&data.test, &surf, 0.0, progress)?;
         let frames: Vec<usize> = (0..data.test.len()).step_by(args.every.max(1)).collect();
         let max = args.max as i64;
-        let bar = bar(progress, ((2 * max + 1) as usize * frames.len()) as u64, "perturb");
+        let bar = bar(
+            progress,
+            ((2 * max + 1) as usize * frames.len()) as u64,
+            "perturb",
+        );
         let mut rows = Vec::new();
         for e in -max..=max {
             let per_frame: Result<Vec<Option<(Status, Option<(f64, f64)>)>>> = frames
@@ -164,15 +154,15 @@ impl PerturbJob {
                 })
                 .collect();
             let per_frame: Vec<_> = per_frame?.into_iter().flatten().collect();
-            let mut pos: Vec<f64> = per_frame.iter().filter_map(|x| x.1.map(|e| e.0)).collect();
-            let mut rot: Vec<f64> = per_frame.iter().filter_map(|x| x.1.map(|e| e.1)).collect();
-            let mut refined_pos: Vec<f64> = per_frame
+            let pos: Vec<f64> = per_frame.iter().filter_map(|x| x.1.map(|e| e.0)).collect();
+            let rot: Vec<f64> = per_frame.iter().filter_map(|x| x.1.map(|e| e.1)).collect();
+            let refined_pos: Vec<f64> = per_frame
                 .iter()
                 .filter(|x| x.0 == Status::Refined)
                 .filter_map(|x| x.1.map(|e| e.0))
                 .collect();
-            let (mp, dp) = mean_median(&mut pos);
-            let (mr, dr) = mean_median(&mut rot);
+            let (mp, dp) = mean_median(&pos);
+            let (mr, dr) = mean_median(&rot);
             rows.push(Row {
                 offset: e,
                 frames: per_frame.len(),
@@ -182,7 +172,7 @@ impl PerturbJob {
                 median_position_mm: dp,
                 mean_orientation_deg: mr,
                 median_orientation_deg: dr,
-                refined_mean_position_mm: mean_median(&mut refined_pos).0,
+                refined_mean_position_mm: mean_median(&refined_pos).0,
             });
         }
         bar.finish_and_clear();
@@ -270,13 +260,16 @@ impl PerturbJob {
             header: header.iter().map(|s| s.to_string()).collect(),
             rows: table_rows,
         });
-        if let Some(b) = common::image_block(&png, "Errors against the forced zone offset", progress) {
+        if let Some(b) =
+            common::image_block(&png, "Errors against the forced zone offset", progress)
+        {
             html.push(b);
         }
         common::write_text(&args.out.join("report.html"), &html.render())
             .context("writing report.html")?;
         print!("{}", md.lines().skip(4).collect::<Vec<_>>().join("\n"));
-        note!(progress, 
+        note!(
+            progress,
             "\nwrote     {}/perturb.csv, perturb.md, perturb.png, report.html",
             args.out.display()
         );

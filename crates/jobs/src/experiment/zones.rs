@@ -11,12 +11,12 @@ use endoloc_geometry::Status;
 use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
 
-use crate::progress::Progress;
-use crate::note;
 use super::common::{
     self, Data, DataArgs, FeatureCache, TrainSpec, ZoneChoice, ensure_map, ensure_model,
     pose_error, predict_zones, run_endoloc,
 };
+use crate::note;
+use crate::progress::Progress;
 
 /// Sweep the number of uniform zones: for every count from --from to --to (step --step),
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -185,7 +185,8 @@ impl ZoneSweepJob {
                     continue;
                 }
                 let finished = rows.len();
-                note!(progress, 
+                note!(
+                    progress,
                     "\n=== run {}/{}: {n} zones, seed {r}{}",
                     finished + 1,
                     total,
@@ -211,8 +212,8 @@ impl ZoneSweepJob {
                     zone_ms,
                     ZoneChoice::PerFrame,
                     args.candidate_zones,
- progress,
-)?;
+                    progress,
+                )?;
                 let mut pos = Vec::new();
                 let mut rot = Vec::new();
                 for (i, res) in results.iter().enumerate() {
@@ -247,7 +248,8 @@ impl ZoneSweepJob {
                     median_orientation_deg: dr,
                     seconds: t.elapsed().as_secs_f64(),
                 };
-                note!(progress, 
+                note!(
+                    progress,
                     "zones {n:>3} run {r:>2}: mean {mp:.2} mm / {mr:.2}°, median {dp:.2} mm / {dr:.2}°, refined {:.1} %, {:.0} s",
                     100.0 * row.refined as f64 / row.frames.max(1) as f64,
                     row.seconds
@@ -399,12 +401,21 @@ fn write_outputs(args: &ZoneSweepJob, rows: &[RunRow], progress: &dyn Progress) 
             "Best zone count: {n} (median of run means {e:.2} mm)."
         )));
     }
-    if let Some(b) = common::image_block(&png, "Mean errors of the runs against the zone count", progress) {
+    if let Some(b) = common::image_block(
+        &png,
+        "Mean errors of the runs against the zone count",
+        progress,
+    ) {
         html.push(b);
     }
     common::write_text(&args.out.join("report.html"), &html.render())?;
-    note!(progress, "\n{}", md.lines().skip(4).collect::<Vec<_>>().join("\n"));
-    note!(progress, 
+    note!(
+        progress,
+        "\n{}",
+        md.lines().skip(4).collect::<Vec<_>>().join("\n")
+    );
+    note!(
+        progress,
         "wrote     {}/results.csv, zones.md, zones.png, report.html",
         args.out.display()
     );

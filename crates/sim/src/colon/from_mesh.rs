@@ -477,8 +477,8 @@ fn fill_misses(r: &mut [f64], rings: usize, m: usize) {
             .filter(|(_, v)| v.is_finite())
             .map(|(j, v)| (j, *v))
             .collect();
-        for j in 0..m {
-            if !row[j].is_finite() {
+        for (j, x) in row.iter_mut().enumerate() {
+            if !x.is_finite() {
                 let nearest = known
                     .iter()
                     .min_by_key(|(kj, _)| {
@@ -486,7 +486,7 @@ fn fill_misses(r: &mut [f64], rings: usize, m: usize) {
                         d.min(m - d)
                     })
                     .map(|(_, v)| *v);
-                row[j] = nearest.unwrap_or(f64::NAN);
+                *x = nearest.unwrap_or(f64::NAN);
             }
         }
     }

@@ -1,5 +1,5 @@
-//! One-call localization of an image from its 2D–3D matches: prior → Gauss-Newton, a RANSAC
-//! P3P restart when the prior is poor, then the validity check.
+//! Registration of an image to the map: its camera pose from 2D–3D matches in one call —
+//! prior → Gauss-Newton, a RANSAC P3P restart when the prior is poor, then the validity check.
 //!
 //! 1. Too few correspondences: `init_only` (or `rejected`) right away.
 //! 2. Gauss-Newton ([`refine_pose`]) from the prior (the zone median).
@@ -20,10 +20,11 @@ use crate::pose::Pose;
 use crate::refine_pose::{PoseEstimate, RefineConfig, refine_pose};
 use crate::validity::{Reason, Status, ValidityConfig, Verdict};
 
-/// Settings of [`localize_pose`].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+/// Settings of [`localize_pose`]. [`Default`], [`RegistrationConfig::new`] and a missing
+/// field when deserialising all give the same values (RANSAC restart below 50 % inliers).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
-pub struct LocalizeConfig {
+pub struct RegistrationConfig {
     /// Gauss-Newton settings (both starts).
     pub refine: RefineConfig,
     /// RANSAC settings for the restart.
@@ -37,13 +38,24 @@ pub struct LocalizeConfig {
     pub always_ransac: bool,
 }
 
-impl LocalizeConfig {
-    /// Defaults with a RANSAC restart below 50 % inliers.
-    pub fn new() -> Self {
+impl Default for RegistrationConfig {
+    /// Default Gauss-Newton, RANSAC and validity settings, a RANSAC restart below 50 %
+    /// inliers, no unconditional RANSAC.
+    fn default() -> Self {
         Self {
+            refine: RefineConfig::default(),
+            ransac: RansacConfig::default(),
+            validity: ValidityConfig::default(),
             ransac_below_inlier_ratio: 0.5,
-            ..Default::default()
+            always_ransac: false,
         }
+    }
+}
+
+impl RegistrationConfig {
+    /// The defaults ([`Default`]): a RANSAC restart below 50 % inliers.
+    pub fn new() -> Self {
+        Self::default()
     }
 }
 
@@ -63,7 +75,7 @@ pub struct Localization {
 
 /// Input errors of [`localize_pose`] (geometric failures are verdicts, not errors).
 #[derive(Debug, Clone, PartialEq, Error)]
-pub enum LocalizeError {
+pub enum RegistrationError {
     /// `points_world` and `pixels` differ in length.
     #[error("{points} map points but {pixels} pixels")]
     LengthMismatch {
@@ -97,10 +109,10 @@ pub fn localize_pose(
     points_world: &[Point3<f64>],
     pixels: &[Point2<f64>],
     camera: &Camera,
-    cfg: &LocalizeConfig,
-) -> Result<Localization, LocalizeError> {
+    cfg: &RegistrationConfig,
+) -> Result<Localization, RegistrationError> {
     if points_world.len() != pixels.len() {
-        return Err(LocalizeError::LengthMismatch {
+        return Err(RegistrationError::LengthMismatch {
             points: points_world.len(),
             pixels: pixels.len(),
         });
@@ -108,11 +120,11 @@ pub fn localize_pose(
     if !(prior.translation.vector.iter().all(|v| v.is_finite())
         && prior.rotation.coords.iter().all(|v| v.is_finite()))
     {
-        return Err(LocalizeError::NonFinitePrior);
+        return Err(RegistrationError::NonFinitePrior);
     }
     for (index, (p, px)) in points_world.iter().zip(pixels).enumerate() {
         if !(p.coords.iter().all(|v| v.is_finite()) && px.coords.iter().all(|v| v.is_finite())) {
-            return Err(LocalizeError::NonFinite { index });
+            return Err(RegistrationError::NonFinite { index });
         }
     }
     let n = points_world.len();

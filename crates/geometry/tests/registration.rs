@@ -2,7 +2,7 @@
 
 use endoloc_geometry::synthetic::{PnpSceneConfig, perturb_pose, pnp_scene};
 use endoloc_geometry::{
-    LocalizeConfig, LocalizeError, RansacConfig, Reason, Status, localize_pose,
+    RansacConfig, Reason, RegistrationConfig, RegistrationError, Status, localize_pose,
     orientation_error_deg, position_error_mm, ransac_pnp,
 };
 use nalgebra::{Point2, Point3};
@@ -48,7 +48,7 @@ fn ransac_finds_the_pose_under_noise_and_30_percent_outliers() {
 
 #[test]
 fn bad_priors_30_degrees_and_20_mm_off_are_recovered() {
-    let cfg = LocalizeConfig::new();
+    let cfg = RegistrationConfig::new();
     for seed in 0..20 {
         let s = pnp_scene(&PnpSceneConfig::default(), 2000 + seed);
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -85,7 +85,7 @@ fn a_good_prior_needs_no_ransac_and_noise_free_is_exact() {
         &s.points_world,
         &s.pixels,
         &s.camera,
-        &LocalizeConfig::new(),
+        &RegistrationConfig::new(),
     )
     .unwrap();
     assert_eq!(loc.verdict.status, Status::Refined);
@@ -105,7 +105,7 @@ fn a_prior_from_the_wrong_zone_is_rejected() {
         &s.points_world,
         &s.pixels,
         &s.camera,
-        &LocalizeConfig::new(),
+        &RegistrationConfig::new(),
     )
     .unwrap();
     assert_eq!(loc.verdict.status, Status::Rejected);
@@ -119,7 +119,7 @@ fn a_prior_from_the_wrong_zone_is_rejected() {
 #[test]
 fn too_few_correspondences_report_the_prior() {
     let s = pnp_scene(&PnpSceneConfig::default(), 6);
-    let cfg = LocalizeConfig::new();
+    let cfg = RegistrationConfig::new();
     for n in [0, 2, 5] {
         let loc = localize_pose(
             &s.t_wc,
@@ -141,18 +141,18 @@ fn too_few_correspondences_report_the_prior() {
 #[test]
 fn degenerate_and_garbage_input_never_panic() {
     let s = pnp_scene(&PnpSceneConfig::default(), 8);
-    let cfg = LocalizeConfig::new();
+    let cfg = RegistrationConfig::new();
 
     // NaN and mismatched lengths are input errors.
     let mut nan = s.pixels.clone();
     nan[3].x = f64::NAN;
     assert_eq!(
         localize_pose(&s.t_wc, &s.points_world, &nan, &s.camera, &cfg),
-        Err(LocalizeError::NonFinite { index: 3 })
+        Err(RegistrationError::NonFinite { index: 3 })
     );
     assert!(matches!(
         localize_pose(&s.t_wc, &s.points_world, &s.pixels[..10], &s.camera, &cfg),
-        Err(LocalizeError::LengthMismatch { .. })
+        Err(RegistrationError::LengthMismatch { .. })
     ));
 
     // Collinear map points: the pose is unobservable.
