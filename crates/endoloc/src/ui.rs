@@ -59,10 +59,10 @@ impl Progress for Terminal {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         bar.set_message(label.to_string());
-        if let Ok(mut guard) = self.bar.lock() {
-            if let Some(old) = guard.replace(bar) {
-                old.finish_and_clear();
-            }
+        if let Ok(mut guard) = self.bar.lock()
+            && let Some(old) = guard.replace(bar)
+        {
+            old.finish_and_clear();
         }
     }
     fn inc(&self, n: u64) {

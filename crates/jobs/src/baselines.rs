@@ -40,6 +40,17 @@ impl Regressor {
     }
 }
 
+/// How a regression baseline is trained.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RegressorSettings {
+    /// Epochs (`None`: the schedule's).
+    pub epochs: Option<usize>,
+    /// Seed of every random step.
+    pub seed: u64,
+    /// Replace an existing model folder.
+    pub force: bool,
+}
+
 /// Poses estimated by a baseline for every test frame (`None`: no pose) and the time per
 /// frame, ms.
 #[derive(Debug, Clone)]
@@ -60,11 +71,14 @@ pub fn train_regressor(
     train: &Sequence,
     camera: &Camera,
     out: &Path,
-    epochs: Option<usize>,
-    seed: u64,
-    force: bool,
+    settings: RegressorSettings,
     progress: &dyn Progress,
 ) -> Result<f64> {
+    let RegressorSettings {
+        epochs,
+        seed,
+        force,
+    } = settings;
     crate::output::refuse_existing(out, force, "")?;
     let mut cfg = RegressConfig {
         seed,

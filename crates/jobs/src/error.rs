@@ -168,6 +168,14 @@ macro_rules! bail {
     };
 }
 
+/// Sends a `format!` line to a [`crate::Progress`] sink's `note`.
+#[macro_export]
+macro_rules! note {
+    ($progress:expr, $($arg:tt)*) => {
+        $progress.note(&format!($($arg)*))
+    };
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,12 +188,4 @@ mod tests {
         let cause = std::error::Error::source(&err).map(|s| s.to_string());
         assert_eq!(cause.as_deref(), Some("disk full"));
     }
-}
-
-/// Sends a `format!` line to a [`crate::Progress`] sink's `note`.
-#[macro_export]
-macro_rules! note {
-    ($progress:expr, $($arg:tt)*) => {
-        $progress.note(&format!($($arg)*))
-    };
 }

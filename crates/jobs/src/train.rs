@@ -12,7 +12,7 @@ use endoloc_net::{AugmentConfig, PairRule, UniformBy, ZoneConfig, ZoneTable};
 use serde::{Deserialize, Serialize};
 
 use crate::bail;
-use crate::baselines::{Regressor, train_regressor};
+use crate::baselines::{Regressor, RegressorSettings, train_regressor};
 use crate::error::{Context, Result};
 use crate::progress::Progress;
 
@@ -363,9 +363,11 @@ impl TrainJob {
                 &seq,
                 &dataset.meta.camera,
                 &args.out,
-                args.epochs,
-                args.seed,
-                args.force,
+                RegressorSettings {
+                    epochs: args.epochs,
+                    seed: args.seed,
+                    force: args.force,
+                },
                 progress,
             )?;
             return Ok(TrainReport::Regressor {

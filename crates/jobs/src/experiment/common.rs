@@ -328,12 +328,12 @@ pub(super) fn run_endoloc(
         let bar = bar(progress, n as u64, "live");
         let mut state = localizer.live_state();
         let mut out = Vec::with_capacity(n);
-        for i in 0..n {
+        for (i, pred) in preds.iter().enumerate() {
             out.push(localizer.localize_live_features(
                 &mut state,
                 &features.features[i],
                 features.retry_of(i),
-                &preds[i],
+                pred,
                 times(i),
             )?);
             bar.inc(1);

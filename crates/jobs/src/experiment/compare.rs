@@ -337,9 +337,11 @@ impl Ctx<'_> {
                                 &train,
                                 &ds.meta.camera,
                                 &dir,
-                                self.epochs,
-                                self.seed,
-                                false,
+                                baselines::RegressorSettings {
+                                    epochs: self.epochs,
+                                    seed: self.seed,
+                                    force: false,
+                                },
                                 progress,
                             )?;
                         }

@@ -80,6 +80,10 @@ struct Row {
     refined_mean_position_mm: Option<f64>,
 }
 
+/// One frame at one offset: its status and, with a pose, its position (mm) and orientation
+/// (°) errors.
+type FrameOutcome = Option<(Status, Option<(f64, f64)>)>;
+
 impl PerturbJob {
     /// Runs the experiment.
     ///
@@ -135,7 +139,7 @@ impl PerturbJob {
         );
         let mut rows = Vec::new();
         for e in -max..=max {
-            let per_frame: Result<Vec<Option<(Status, Option<(f64, f64)>)>>> = frames
+            let per_frame: Result<Vec<FrameOutcome>> = frames
                 .par_iter()
                 .map(|&i| {
                     bar.inc(1);
