@@ -130,6 +130,9 @@ impl Default for LocalizeJob {
     }
 }
 
+/// The file in a localization run's folder that holds the job that made it.
+pub const LOCALIZE_FILE: &str = "localize.toml";
+
 /// What `LocalizeJob` did.
 #[derive(Debug, Clone)]
 pub struct LocalizeReport {
@@ -199,7 +202,9 @@ impl LocalizeJob {
             if !self.also_model.is_empty() {
                 bail!("also_model (--also-model) joins zone models for the endoloc method only");
             }
-            return self.run_baseline(progress);
+            let report = self.run_baseline(progress)?;
+            self.save(&self.out)?;
+            return Ok(report);
         }
         let model = self
             .model
@@ -249,6 +254,7 @@ impl LocalizeJob {
         };
         let wall_s = t.elapsed().as_secs_f64();
         write_results(&self.out, &seq, &frames)?;
+        self.save(&self.out)?;
         let with_pose = frames.iter().filter(|r| r.t_wc.is_some()).count();
         Ok(LocalizeReport {
             frame_count: n,
@@ -259,6 +265,27 @@ impl LocalizeJob {
             note: None,
             out: self.out.clone(),
         })
+    }
+
+    /// Writes this job as `localize.toml` into `dir`, so that the run can be repeated (and
+    /// viewed) from its own files. Paths are stored as given.
+    ///
+    /// # Errors
+    /// A file that cannot be written.
+    pub fn save(&self, dir: &Path) -> Result<()> {
+        let text = toml::to_string_pretty(self)?;
+        endoloc_data::write_atomic(&dir.join(LOCALIZE_FILE), text.as_bytes())?;
+        Ok(())
+    }
+
+    /// Reads the `localize.toml` that a run wrote into `dir`.
+    ///
+    /// # Errors
+    /// A missing or unreadable file.
+    pub fn load(dir: &Path) -> Result<Self> {
+        let path = dir.join(LOCALIZE_FILE);
+        let text = std::fs::read_to_string(&path).map_err(|e| JobError::io(&path, e))?;
+        toml::from_str(&text).with_context(|| format!("reading {}", path.display()))
     }
 
     /// A baseline: its estimates and `trajectory.txt`.
@@ -525,5 +552,19 @@ mod tests {
         );
         let from_toml: LocalizeJob = toml::from_str("").unwrap();
         assert_eq!(from_toml, LocalizeJob::default());
+    }
+
+    #[test]
+    fn a_saved_job_reads_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let job = LocalizeJob {
+            model: Some("models/m".into()),
+            seq: "data/d/test".into(),
+            live: true,
+            threshold: Some(40.0),
+            ..LocalizeJob::default()
+        };
+        job.save(dir.path()).unwrap();
+        assert_eq!(LocalizeJob::load(dir.path()).unwrap(), job);
     }
 }

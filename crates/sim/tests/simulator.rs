@@ -24,15 +24,16 @@ fn tiny_config(seed: u64) -> SimConfig {
 }
 
 fn gca_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/gca-edin-00090");
-    if dir.join("large_intestine_path.jsn").is_file() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "SKIPPED: real CT colon not found at {} (shared data absent)",
-            dir.display()
-        );
-        None
+    // The CT colon's folder comes from the environment; `.ci/run` sets it when the data exists.
+    match std::env::var_os("ENDOLOC_GCA_DIR").map(PathBuf::from) {
+        Some(d) if d.join("large_intestine_path.jsn").is_file() => Some(d),
+        other => {
+            eprintln!(
+                "SKIPPED: set ENDOLOC_GCA_DIR to a Gut Cell Atlas colon folder (now {:?})",
+                other
+            );
+            None
+        }
     }
 }
 

@@ -1,6 +1,6 @@
 //! Runs the visual odometry over a dataset sequence and prints the aligned errors, the
-//! tracked fraction and where tracking was lost (the lead's `endoloc … --method vo` is the
-//! user-facing command; this example produced the figures in the crate README).
+//! tracked fraction and where tracking was lost (`endoloc localize --method vo` is the
+//! user-facing command; this example gives the figures in the crate README).
 //!
 //! `cargo run --release -p endoloc-vo --example vo_dataset -- DATASET [SEQUENCE] [FIRST] [COUNT]`
 

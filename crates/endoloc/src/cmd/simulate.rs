@@ -18,7 +18,7 @@ use endoloc_sim::SimConfig;
 ///
 ///   endoloc simulate --preset paper --seed 3 --out data/paper
 ///
-///   endoloc simulate --preset small --gca ../shared/data/gca-edin-00090 --out data/ct
+///   endoloc simulate --preset small --gca data/gca-edin-00090 --out data/ct
 ///   (Edinburgh Gut Cell Atlas model EdinGCA_3D_00090, CC BY 4.0: attribute it)
 ///
 ///   endoloc simulate --preset paper --print-config > sim.toml   # edit, then:
@@ -46,7 +46,7 @@ pub struct Args {
     seed: Option<u64>,
 
     /// Use a GCA model folder (surface .vtk, mid-line .jsn, landmarks .json) as the colon,
-    /// e.g. ../shared/data/gca-edin-00090.
+    /// e.g. data/gca-edin-00090.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["mesh", "path"])]
     gca: Option<PathBuf>,
 

@@ -76,7 +76,7 @@ impl MeshColonConfig {
         }
     }
 
-    /// A config for the files of a GCA model folder such as `shared/data/gca-edin-00090`:
+    /// A config for the files of a GCA model folder such as `data/gca-edin-00090`:
     /// `large_intestine_100k.vtk` (or the 20k one), `large_intestine_path.jsn` and the first
     /// `*.json` model file.
     ///
