@@ -35,6 +35,7 @@ pub mod predict;
 pub mod pretrain;
 pub mod simulate;
 pub mod train;
+pub mod view;
 
 pub use classify::{ClassifyJob, ClassifyReport, ZoneAccuracy};
 pub use dataset::{DatasetAction, DatasetJob, DatasetReport};
@@ -49,3 +50,4 @@ pub use pretrain::{PretrainJob, PretrainReport};
 pub use progress::{Bar, Progress, Silent};
 pub use simulate::{SimulateJob, SimulateReport};
 pub use train::{TrainJob, TrainMethod, TrainReport};
+pub use view::{ViewJob, ViewReport};

@@ -12,3 +12,4 @@ pub mod pretrain;
 pub mod run;
 pub mod simulate;
 pub mod train;
+pub mod view;

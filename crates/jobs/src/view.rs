@@ -1,0 +1,584 @@
+//! `ViewJob`: one self-contained HTML page to explore a localization run.
+//!
+//! The page (`RUN/view.html` by default) holds everything it shows — script, style, poses, map
+//! points and a thumbnail per test frame — and opens from disk with no network: a 3-D view of
+//! the training pass, the per-zone map points, the true and the estimated trajectories and the
+//! scope at the current frame; a frame scrubber with the frame's thumbnail, its map points
+//! reprojected with the estimated pose and its `frames.csv` row; the position error along the
+//! pass (when the test sequence has `poses.txt`).
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use endoloc_data::{Dataset, StampedPose, read_tum};
+use endoloc_eval::{FrameRecord, read_frames_csv};
+use endoloc_geometry::{
+    Camera, Pose, Status, canonical_quaternion, orientation_error_deg, position_error_mm,
+};
+use endoloc_localize::map_io::load_map;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::bail;
+use crate::error::{Context, JobError, Result};
+use crate::localize::{LOCALIZE_FILE, LocalizeJob};
+use crate::progress::{Progress, bar};
+
+/// The page's markup and style; `/*VIEWER_JS*/` and `/*VIEWER_DATA*/` are replaced.
+const TEMPLATE: &str = include_str!("view/viewer.html");
+/// The page's script.
+const SCRIPT: &str = include_str!("view/viewer.js");
+
+/// The file name of the page inside the run folder when no `out` is given.
+pub const VIEW_FILE: &str = "view.html";
+
+/// Writes one self-contained HTML page (`view.html` in the run folder, or `out`) that shows a
+/// localization run: trajectories, map points, per-frame thumbnails with the reprojected map,
+/// status and errors. The run folder is one written by `endoloc localize` (`trajectory.txt`,
+/// `frames.csv`, `localize.toml`); the sequence and model it names are read for the images,
+/// the ground truth, the camera, the training pass and the map.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ViewJob {
+    /// Run folder written by `endoloc localize`.
+    pub run: PathBuf,
+    /// Output file (`None`: `view.html` in the run folder).
+    pub out: Option<PathBuf>,
+    /// Replace an existing page.
+    pub force: bool,
+    /// Width of the frame thumbnails, pixels (height follows the camera's aspect ratio).
+    pub thumb_width: u32,
+    /// At most this many map points in the page, in all zones together (subsampled evenly).
+    pub max_points: usize,
+    /// Leave out the ground truth even when the sequence has `poses.txt`.
+    pub no_gt: bool,
+    /// Test sequence folder (`None`: the one in the run's `localize.toml`).
+    pub seq: Option<PathBuf>,
+    /// Model folder (`None`: the one in the run's `localize.toml`).
+    pub model: Option<PathBuf>,
+    /// JPEG quality of the thumbnails, 1–100.
+    pub jpeg_quality: u8,
+}
+
+impl Default for ViewJob {
+    fn default() -> Self {
+        ViewJob {
+            run: PathBuf::new(),
+            out: None,
+            force: false,
+            thumb_width: 160,
+            max_points: 30_000,
+            no_gt: false,
+            seq: None,
+            model: None,
+            jpeg_quality: 75,
+        }
+    }
+}
+
+/// What `ViewJob` wrote.
+#[derive(Debug, Clone)]
+pub struct ViewReport {
+    /// The page.
+    pub out: PathBuf,
+    /// Its size, bytes.
+    pub bytes: u64,
+    /// Test frames shown.
+    pub frames: usize,
+    /// Frames with an estimated pose.
+    pub with_pose: usize,
+    /// Map points in the page (after subsampling) and in the map.
+    pub points: (usize, usize),
+    /// Whether position and orientation errors are shown.
+    pub ground_truth: bool,
+    /// Inputs that were missing and left out of the page (e.g. no map).
+    pub missing: Vec<String>,
+}
+
+impl fmt::Display for ViewReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "frames    {} ({} with a pose); map points {} of {}; ground truth {}",
+            self.frames,
+            self.with_pose,
+            self.points.0,
+            self.points.1,
+            if self.ground_truth { "yes" } else { "no" }
+        )?;
+        for m in &self.missing {
+            writeln!(f, "left out  {m}")?;
+        }
+        write!(
+            f,
+            "wrote     {} ({:.1} MB)",
+            self.out.display(),
+            self.bytes as f64 / 1e6
+        )
+    }
+}
+
+/// The data embedded in the page as one JSON object (lengths in mm, world frame, `T_wc`).
+#[derive(Debug, Serialize)]
+struct PageData {
+    title: String,
+    frames: usize,
+    zones: usize,
+    camera: CameraData,
+    thumb: ThumbData,
+    /// Training pass positions, flat `x y z …`.
+    train: Vec<f64>,
+    /// Map points, flat `x y z …`, sorted by zone.
+    points: Vec<f64>,
+    /// `[first, end)` indices into the points of each zone.
+    zone_points: Vec<[usize; 2]>,
+    /// Ground-truth poses `x y z qx qy qz qw` per frame, or none.
+    gt: Option<Vec<[f64; 7]>>,
+    /// Estimated poses per frame (`None`: rejected).
+    est: Vec<Option<[f64; 7]>>,
+    zone: Vec<Option<usize>>,
+    zone_score: Vec<Option<f64>>,
+    /// 0 refined, 1 init_only, 2 rejected.
+    status: Vec<u8>,
+    reason: Vec<String>,
+    inliers: Vec<Option<usize>>,
+    rms: Vec<Option<f64>>,
+    time_ms: Vec<f64>,
+    pos_err: Option<Vec<Option<f64>>>,
+    rot_err: Option<Vec<Option<f64>>>,
+    /// Base64 thumbnails, one per frame (`image_mime`).
+    images: Vec<String>,
+    image_mime: &'static str,
+}
+
+#[derive(Debug, Serialize)]
+struct CameraData {
+    width: u32,
+    height: u32,
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct ThumbData {
+    width: u32,
+    height: u32,
+}
+
+fn round(x: f64, digits: i32) -> f64 {
+    let s = 10f64.powi(digits);
+    (x * s).round() / s
+}
+
+fn pose7(p: &Pose) -> [f64; 7] {
+    let t = p.translation.vector;
+    let q = canonical_quaternion(p.rotation);
+    [
+        round(t.x, 2),
+        round(t.y, 2),
+        round(t.z, 2),
+        round(q.i, 5),
+        round(q.j, 5),
+        round(q.k, 5),
+        round(q.w, 5),
+    ]
+}
+
+/// A path stored in `localize.toml` "as given": as it is when it exists from here, else
+/// relative to the run folder or one of its parents.
+fn resolve(path: &Path, run: &Path) -> PathBuf {
+    if path.is_absolute() || path.exists() {
+        return path.to_path_buf();
+    }
+    run.ancestors()
+        .map(|a| a.join(path))
+        .find(|p| p.exists())
+        .unwrap_or_else(|| path.to_path_buf())
+}
+
+/// The PNG images of a sequence's `images/` folder, in file order.
+fn list_images(seq: &Path) -> Result<Vec<PathBuf>> {
+    let dir = seq.join("images");
+    let rd = std::fs::read_dir(&dir).map_err(|e| JobError::io(&dir, e))?;
+    let mut paths = Vec::new();
+    for entry in rd {
+        let p = entry.map_err(|e| JobError::io(&dir, e))?.path();
+        if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+            paths.push(p);
+        }
+    }
+    paths.sort();
+    Ok(paths)
+}
+
+/// The camera of the dataset that holds `seq` (`dataset.toml` in its parent folder).
+fn camera_of(seq: &Path) -> Result<Camera> {
+    let parent = seq
+        .canonicalize()
+        .map_err(|e| JobError::io(seq, e))?
+        .parent()
+        .map(Path::to_path_buf)
+        .with_context(|| format!("{} has no parent dataset folder", seq.display()))?;
+    let ds = Dataset::open(&parent).with_context(|| {
+        format!(
+            "{} should be a sequence folder inside a dataset (with dataset.toml)",
+            seq.display()
+        )
+    })?;
+    Ok(ds.meta.camera)
+}
+
+fn encode_thumb(img: &image::GrayImage, width: u32, height: u32, quality: u8) -> Result<Vec<u8>> {
+    let small = image::imageops::resize(img, width, height, image::imageops::FilterType::Triangle);
+    let mut bytes = Vec::new();
+    let enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, quality.clamp(1, 100));
+    small
+        .write_with_encoder(enc)
+        .map_err(|e| JobError::Invalid(format!("encoding a thumbnail: {e}")))?;
+    Ok(bytes)
+}
+
+/// Estimated poses per frame: the lines of `trajectory.txt` belong, in order, to the frames
+/// whose status is not `rejected`; failing that, they are matched by timestamp to `gt`.
+fn estimates_per_frame(
+    rows: &[FrameRecord],
+    est: &[StampedPose],
+    gt: Option<&[StampedPose]>,
+    traj_path: &Path,
+) -> Result<Vec<Option<Pose>>> {
+    let with_pose: Vec<usize> = rows
+        .iter()
+        .filter(|r| r.status != Status::Rejected)
+        .map(|r| r.frame)
+        .collect();
+    let mut out = vec![None; rows.len()];
+    if with_pose.len() == est.len() {
+        for (&f, p) in with_pose.iter().zip(est) {
+            out[f] = Some(p.pose);
+        }
+        return Ok(out);
+    }
+    let Some(gt) = gt else {
+        bail!(
+            "{}: {} poses but {} frames of frames.csv have one, and without the sequence's poses.txt the poses cannot be matched to frames by timestamp",
+            traj_path.display(),
+            est.len(),
+            with_pose.len()
+        );
+    };
+    for p in est {
+        let i = gt
+            .iter()
+            .position(|g| (g.timestamp_s - p.timestamp_s).abs() < 1e-6)
+            .with_context(|| {
+                format!(
+                    "{}: timestamp {} is no frame of the test sequence",
+                    traj_path.display(),
+                    p.timestamp_s
+                )
+            })?;
+        if i < out.len() {
+            out[i] = Some(p.pose);
+        }
+    }
+    Ok(out)
+}
+
+impl ViewJob {
+    /// The page this job writes.
+    pub fn out_path(&self) -> PathBuf {
+        self.out
+            .clone()
+            .unwrap_or_else(|| self.run.join(VIEW_FILE))
+    }
+
+    /// Reads the run, its sequence and model, and writes the page.
+    ///
+    /// # Errors
+    /// An existing page without `force`; a folder that is not a localization run; a missing
+    /// sequence or unreadable image; a trajectory that does not fit `frames.csv`; a failed
+    /// write.
+    pub fn run(&self, progress: &dyn Progress) -> Result<ViewReport> {
+        let out = self.out_path();
+        crate::output::refuse_existing(&out, self.force, "")?;
+        if self.thumb_width < 8 || self.thumb_width > 2048 {
+            bail!(
+                "thumb_width (--thumb-width) must be 8 to 2048 pixels, not {}",
+                self.thumb_width
+            );
+        }
+        let run = &self.run;
+        let frames_path = run.join("frames.csv");
+        let traj_path = run.join("trajectory.txt");
+        if !run.is_dir() || !frames_path.is_file() || !traj_path.is_file() {
+            bail!(
+                "{} is not a localization run folder: it should contain frames.csv and trajectory.txt (and localize.toml), as `endoloc localize --out DIR` writes them",
+                run.display()
+            );
+        }
+        let localize = if run.join(LOCALIZE_FILE).is_file() {
+            Some(LocalizeJob::load(run)?)
+        } else {
+            None
+        };
+        let seq = match (&self.seq, &localize) {
+            (Some(s), _) => s.clone(),
+            (None, Some(l)) => resolve(&l.seq, run),
+            (None, None) => bail!(
+                "{} has no {LOCALIZE_FILE} naming the test sequence; give it (--seq DIR)",
+                run.display()
+            ),
+        };
+        let model = match (&self.model, &localize) {
+            (Some(m), _) => Some(m.clone()),
+            (None, Some(l)) => l.model.as_deref().map(|m| resolve(m, run)),
+            (None, None) => None,
+        };
+        let mut missing = Vec::new();
+
+        let rows = read_frames_csv(&frames_path)?;
+        for (i, r) in rows.iter().enumerate() {
+            if r.frame != i {
+                bail!(
+                    "{}: row {} is frame {}; expected one row per frame in order",
+                    frames_path.display(),
+                    i + 1,
+                    r.frame
+                );
+            }
+        }
+        let n = rows.len();
+        let images = list_images(&seq)?;
+        if images.len() != n {
+            bail!(
+                "{} has {} frames but {} holds {} images; is this the sequence the run localized?",
+                frames_path.display(),
+                n,
+                seq.join("images").display(),
+                images.len()
+            );
+        }
+        let gt_path = seq.join("poses.txt");
+        let gt = if self.no_gt {
+            None
+        } else if gt_path.is_file() {
+            let gt = read_tum(&gt_path)?;
+            if gt.len() != n {
+                bail!(
+                    "{} has {} poses for {n} frames; expected one per frame",
+                    gt_path.display(),
+                    gt.len()
+                );
+            }
+            Some(gt)
+        } else {
+            missing.push(format!("errors: no {}", gt_path.display()));
+            None
+        };
+        let est_stamped = read_tum(&traj_path)?;
+        let est = estimates_per_frame(&rows, &est_stamped, gt.as_deref(), &traj_path)?;
+        let camera = camera_of(&seq)?;
+
+        // The training pass and the map.
+        let mut train = Vec::new();
+        let mut zones_count = rows.iter().filter_map(|r| r.zone).max().map_or(0, |z| z + 1);
+        let mut points = Vec::new();
+        let mut zone_points = Vec::new();
+        let mut map_points_total = 0;
+        if let Some(model) = &model {
+            let tp = model.join(endoloc_net::model::POSES_FILE);
+            if tp.is_file() {
+                for p in read_tum(&tp)? {
+                    let t = p.pose.translation.vector;
+                    train.extend([round(t.x, 2), round(t.y, 2), round(t.z, 2)]);
+                }
+            } else {
+                missing.push(format!("training pass: no {}", tp.display()));
+            }
+            let zp = model.join(endoloc_net::zones::ZONES_FILE);
+            if zp.is_file() {
+                let table = endoloc_net::ZoneTable::load(&zp)?;
+                zones_count = zones_count.max(table.len());
+            }
+            if model.join("map.bin").is_file() {
+                let map = load_map(model)?;
+                map_points_total = map.zones.iter().map(|z| z.points.len()).sum::<usize>();
+                let keep = if map_points_total > self.max_points {
+                    self.max_points as f64 / map_points_total as f64
+                } else {
+                    1.0
+                };
+                let zones_in_map = map.zones.iter().map(|z| z.zone + 1).max().unwrap_or(0);
+                zones_count = zones_count.max(zones_in_map);
+                zone_points = vec![[0usize, 0usize]; zones_count];
+                let mut zm: Vec<_> = map.zones.iter().collect();
+                zm.sort_by_key(|z| z.zone);
+                let mut acc = 0.0;
+                for z in zm {
+                    let first = points.len() / 3;
+                    for p in &z.points {
+                        acc += keep;
+                        if acc >= 1.0 {
+                            acc -= 1.0;
+                            let w = p.p_world;
+                            points.extend([round(w.x, 2), round(w.y, 2), round(w.z, 2)]);
+                        }
+                    }
+                    zone_points[z.zone] = [first, points.len() / 3];
+                }
+            } else {
+                missing.push(format!("map points: no {}", model.join("map.bin").display()));
+            }
+        } else {
+            missing.push("training pass and map: the run names no model (--model DIR)".into());
+        }
+        if zone_points.len() < zones_count {
+            let end = points.len() / 3;
+            zone_points.resize(zones_count, [end, end]);
+        }
+
+        // Thumbnails.
+        let tw = self.thumb_width;
+        let th = ((tw as f64 * camera.height as f64 / camera.width as f64).round() as u32).max(1);
+        let thumbs = {
+            let bar = bar(progress, n as u64, "thumbnails");
+            images
+                .par_iter()
+                .map(|path| {
+                    let img = image::open(path)
+                        .map_err(|e| JobError::Invalid(format!("{}: {e}", path.display())))?
+                        .into_luma8();
+                    let bytes = encode_thumb(&img, tw, th, self.jpeg_quality)?;
+                    bar.inc(1);
+                    Ok(endoloc_eval::html::base64(&bytes))
+                })
+                .collect::<Result<Vec<String>>>()?
+        };
+
+        let (pos_err, rot_err) = match &gt {
+            Some(gt) => {
+                let pe = est
+                    .iter()
+                    .zip(gt)
+                    .map(|(e, g)| e.map(|e| round(position_error_mm(&e, &g.pose), 3)))
+                    .collect();
+                let re = est
+                    .iter()
+                    .zip(gt)
+                    .map(|(e, g)| e.map(|e| round(orientation_error_deg(&e, &g.pose), 3)))
+                    .collect();
+                (Some(pe), Some(re))
+            }
+            None => (None, None),
+        };
+        let with_pose = est.iter().filter(|e| e.is_some()).count();
+        let data = PageData {
+            title: run
+                .canonicalize()
+                .ok()
+                .and_then(|p| p.file_name().map(|s| s.to_string_lossy().into_owned()))
+                .unwrap_or_else(|| run.display().to_string()),
+            frames: n,
+            zones: zones_count,
+            camera: CameraData {
+                width: camera.width,
+                height: camera.height,
+                fx: camera.fx,
+                fy: camera.fy,
+                cx: camera.cx,
+                cy: camera.cy,
+            },
+            thumb: ThumbData {
+                width: tw,
+                height: th,
+            },
+            train,
+            zone_points,
+            gt: gt
+                .as_ref()
+                .map(|g| g.iter().map(|p| pose7(&p.pose)).collect()),
+            est: est.iter().map(|e| e.as_ref().map(pose7)).collect(),
+            zone: rows.iter().map(|r| r.zone).collect(),
+            zone_score: rows
+                .iter()
+                .map(|r| r.zone_score.map(|s| round(s, 4)))
+                .collect(),
+            status: rows
+                .iter()
+                .map(|r| match r.status {
+                    Status::Refined => 0,
+                    Status::InitOnly => 1,
+                    Status::Rejected => 2,
+                })
+                .collect(),
+            reason: rows.iter().map(|r| r.reason.clone()).collect(),
+            inliers: rows.iter().map(|r| r.inliers).collect(),
+            rms: rows
+                .iter()
+                .map(|r| r.reprojection_rms_px.map(|x| round(x, 3)))
+                .collect(),
+            time_ms: rows.iter().map(|r| round(r.time_ms, 2)).collect(),
+            pos_err,
+            rot_err,
+            images: thumbs,
+            image_mime: "image/jpeg",
+            points,
+        };
+        let html = render(&data)?;
+        if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+            crate::output::create_dir(parent)?;
+        }
+        endoloc_data::write_atomic(&out, html.as_bytes())?;
+        Ok(ViewReport {
+            bytes: html.len() as u64,
+            out,
+            frames: n,
+            with_pose,
+            points: (data.points.len() / 3, map_points_total),
+            ground_truth: data.gt.is_some(),
+            missing,
+        })
+    }
+}
+
+/// The page: the template with the script and the data (JSON; `<` escaped so that no string
+/// can close the script element).
+fn render(data: &PageData) -> Result<String> {
+    let json = serde_json::to_string(data)?.replace('<', "\\u003c");
+    let page = TEMPLATE
+        .replacen("/*VIEWER_JS*/", SCRIPT, 1)
+        .replacen("/*VIEWER_DATA*/", &json, 1);
+    Ok(page)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_toml_is_the_default() {
+        let job: ViewJob = toml::from_str("").unwrap();
+        assert_eq!(job, ViewJob::default());
+    }
+
+    #[test]
+    fn a_folder_without_frames_csv_is_refused_by_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let job = ViewJob {
+            run: dir.path().to_path_buf(),
+            ..ViewJob::default()
+        };
+        let err = job.run(&crate::Silent).unwrap_err().to_string();
+        assert!(err.contains("not a localization run folder"), "{err}");
+        assert!(err.contains("frames.csv"), "{err}");
+    }
+
+    #[test]
+    fn the_script_cannot_be_closed_by_data() {
+        let page = TEMPLATE.replacen("/*VIEWER_DATA*/", "{}", 1);
+        assert!(page.contains("application/json"));
+        assert!(!SCRIPT.contains("</script"));
+    }
+}
