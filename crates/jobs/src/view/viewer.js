@@ -333,7 +333,7 @@
     items.push(['#ffffff', 'estimated scope']);
     $('legend3d').innerHTML = items.map(function (it) {
       return '<span><i class="sw" style="background:' + it[0] + '"></i>' + it[1] + '</span>';
-    }).join('') + '<span>map points coloured by zone; drag: orbit, wheel: zoom, double-click: reset</span>';
+    }).join('') + '<span>points: map, by zone · drag: orbit · wheel: zoom · double-click: reset</span>';
   }
   function mark() {
     body.setAttribute('data-frame', String(cur));
