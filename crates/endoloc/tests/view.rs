@@ -153,12 +153,19 @@ fn the_page_is_one_self_contained_file_with_the_run() {
     let run = fake_run(dir.path(), true);
     let run_s = run.to_str().unwrap();
     let out = endoloc(&["view", run_s, "--thumb-width", "32"]);
-    let text = String::from_utf8_lossy(&out.stderr).into_owned() + &String::from_utf8_lossy(&out.stdout);
+    let text =
+        String::from_utf8_lossy(&out.stderr).into_owned() + &String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "endoloc view failed:\n{text}");
     let page = run.join("view.html");
     let html = std::fs::read_to_string(&page).unwrap();
-    assert!(!html.contains("http://") && !html.contains("https://"), "the page refers to the network");
-    assert!(!html.contains("src=\"") && !html.contains("href=\""), "the page refers to other files");
+    assert!(
+        !html.contains("http://") && !html.contains("https://"),
+        "the page refers to the network"
+    );
+    assert!(
+        !html.contains("src=\"") && !html.contains("href=\""),
+        "the page refers to other files"
+    );
     let data = page_data(&html);
     assert_eq!(data["frames"], FRAMES);
     assert_eq!(data["images"].as_array().unwrap().len(), FRAMES);
@@ -170,7 +177,10 @@ fn the_page_is_one_self_contained_file_with_the_run() {
     assert_eq!(data["thumb"]["width"], 32);
     assert_eq!(data["thumb"]["height"], 24);
     let err0 = data["pos_err"][0].as_f64().unwrap();
-    assert!((err0 - 0.2).abs() < 1e-6, "position error of frame 0: {err0}");
+    assert!(
+        (err0 - 0.2).abs() < 1e-6,
+        "position error of frame 0: {err0}"
+    );
     let jpeg = data["images"][0].as_str().unwrap();
     assert!(jpeg.starts_with("/9j/"), "thumbnails are base64 JPEG");
 
@@ -178,7 +188,10 @@ fn the_page_is_one_self_contained_file_with_the_run() {
     let again = endoloc(&["view", run_s]);
     assert!(!again.status.success());
     let err = String::from_utf8_lossy(&again.stderr);
-    assert!(err.contains("view.html") && err.contains("--force"), "{err}");
+    assert!(
+        err.contains("view.html") && err.contains("--force"),
+        "{err}"
+    );
     let forced = endoloc(&["view", run_s, "--force", "--max-points", "30"]);
     assert!(forced.status.success());
     let data = page_data(&std::fs::read_to_string(&page).unwrap());
@@ -271,7 +284,11 @@ fn the_page_draws_in_a_headless_browser() {
     let dir = tempfile::tempdir().unwrap();
     let run = fake_run(dir.path(), true);
     let out = endoloc(&["view", run.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let page = run.join("view.html").canonicalize().unwrap();
     let url = format!("file://{}", page.display());
     let profile = dir.path().join("chromium-profile");
@@ -309,22 +326,47 @@ fn the_page_draws_in_a_headless_browser() {
             }
         }
     }
-    assert!(bright > 300, "the 3-D view looks blank ({bright} bright pixels)");
+    assert!(
+        bright > 300,
+        "the 3-D view looks blank ({bright} bright pixels)"
+    );
 
     let dump = |frame: usize| {
-        let res = headless(&browser, &profile, &["--dump-dom".into(), format!("{url}#frame={frame}")]);
+        let res = headless(
+            &browser,
+            &profile,
+            &["--dump-dom".into(), format!("{url}#frame={frame}")],
+        );
         String::from_utf8_lossy(&res.stdout).into_owned()
     };
     let (dom0, dom5) = (dump(0), dump(5));
     for (dom, frame) in [(&dom0, "0"), (&dom5, "5")] {
-        assert_eq!(body_attr(dom, "data-frame").as_deref(), Some(frame), "page state: {:.300}", dom);
-        assert_eq!(body_attr(dom, "data-errors").as_deref(), Some("0"), "script errors at frame {frame}");
-        let drawn: usize = body_attr(dom, "data-drawn-points").unwrap().parse().unwrap();
+        assert_eq!(
+            body_attr(dom, "data-frame").as_deref(),
+            Some(frame),
+            "page state: {:.300}",
+            dom
+        );
+        assert_eq!(
+            body_attr(dom, "data-errors").as_deref(),
+            Some("0"),
+            "script errors at frame {frame}"
+        );
+        let drawn: usize = body_attr(dom, "data-drawn-points")
+            .unwrap()
+            .parse()
+            .unwrap();
         assert!(drawn > 0, "no map points drawn at frame {frame}");
     }
     assert_eq!(body_attr(&dom0, "data-zone").as_deref(), Some("0"));
     assert_eq!(body_attr(&dom5, "data-zone").as_deref(), Some("1"));
-    assert_eq!(body_attr(&dom5, "data-status").as_deref(), Some("init_only"));
-    let reproj: usize = body_attr(&dom0, "data-reprojected").unwrap().parse().unwrap();
+    assert_eq!(
+        body_attr(&dom5, "data-status").as_deref(),
+        Some("init_only")
+    );
+    let reproj: usize = body_attr(&dom0, "data-reprojected")
+        .unwrap()
+        .parse()
+        .unwrap();
     assert!(reproj > 0, "no map point reprojected onto frame 0");
 }

@@ -289,9 +289,7 @@ fn estimates_per_frame(
 impl ViewJob {
     /// The page this job writes.
     pub fn out_path(&self) -> PathBuf {
-        self.out
-            .clone()
-            .unwrap_or_else(|| self.run.join(VIEW_FILE))
+        self.out.clone().unwrap_or_else(|| self.run.join(VIEW_FILE))
     }
 
     /// Reads the run, its sequence and model, and writes the page.
@@ -383,7 +381,11 @@ impl ViewJob {
 
         // The training pass and the map.
         let mut train = Vec::new();
-        let mut zones_count = rows.iter().filter_map(|r| r.zone).max().map_or(0, |z| z + 1);
+        let mut zones_count = rows
+            .iter()
+            .filter_map(|r| r.zone)
+            .max()
+            .map_or(0, |z| z + 1);
         let mut points = Vec::new();
         let mut zone_points = Vec::new();
         let mut map_points_total = 0;
@@ -429,7 +431,10 @@ impl ViewJob {
                     zone_points[z.zone] = [first, points.len() / 3];
                 }
             } else {
-                missing.push(format!("map points: no {}", model.join("map.bin").display()));
+                missing.push(format!(
+                    "map points: no {}",
+                    model.join("map.bin").display()
+                ));
             }
         } else {
             missing.push("training pass and map: the run names no model (--model DIR)".into());
