@@ -285,7 +285,7 @@
 
   // ---- error (or zone) along the pass -------------------------------------------------------
   var cp = $('plot'), gp = cp.getContext('2d');
-  var PAD = { l: 48, r: 10, t: 10, b: 22 };
+  var PAD = { l: 48, r: 10, t: 10, b: 24 };
   var plotMax = 1;
   if (D.pos_err) {
     var pe = D.pos_err.filter(function (e) { return e !== null; }).sort(function (a, b) { return a - b; });
@@ -302,12 +302,17 @@
     gp.fillStyle = '#aaa'; gp.font = '11px sans-serif';
     gp.fillText(D.pos_err ? plotMax.toFixed(1) + ' mm' : 'zone ' + plotMax, 2, PAD.t + 8);
     gp.fillText('0', PAD.l - 12, cp.height - PAD.b);
-    gp.fillText(D.pos_err ? 'position error along the pass (frame)' : 'zone along the pass (frame); no ground truth', PAD.l + 6, cp.height - 6);
+    var caption = D.pos_err ? 'position error along the pass, by frame (click: go to frame)' : 'zone along the pass, by frame (no ground truth; click: go to frame)';
+    gp.fillText(caption, cp.width - PAD.r - gp.measureText(caption).width, PAD.t + 8);
+    for (var k = 0; k <= 10 && N > 1; k++) {
+      var f = Math.round(k * (N - 1) / 10), label = String(f);
+      gp.fillText(label, plotX(f) - gp.measureText(label).width / 2, cp.height - 5);
+    }
     for (var i = 0; i < N; i++) {
       var v = D.pos_err ? D.pos_err[i] : D.zone[i];
       gp.fillStyle = STATUS_COLOUR[D.status[i]];
       if (v === null || v === undefined) {
-        gp.fillRect(plotX(i) - 0.5, cp.height - PAD.b + 2, 1, 5);
+        gp.fillRect(plotX(i) - 0.5, cp.height - PAD.b + 1, 1, 4);
       } else {
         gp.fillRect(plotX(i) - 1, plotY(v) - 1, 2, 2);
       }
