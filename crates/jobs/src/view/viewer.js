@@ -383,7 +383,12 @@
     var m = /frame=(\d+)/.exec(location.hash);
     return m ? Math.max(0, Math.min(N - 1, parseInt(m[1], 10))) : 0;
   }
-  window.addEventListener('hashchange', function () { setFrame(frameFromHash()); });
+  // `#frame=N` in the address opens frame N, through the scrubber as a user would move it.
+  function openFromHash() {
+    $('scrub').value = String(frameFromHash());
+    $('scrub').dispatchEvent(new Event('input'));
+  }
+  window.addEventListener('hashchange', openFromHash);
 
   var counts = [0, 0, 0];
   D.status.forEach(function (s) { counts[s]++; });
@@ -391,5 +396,5 @@
   $('summary').textContent = N + ' frames: ' + counts[0] + ' refined, ' + counts[1] + ' init_only, ' + counts[2] +
     ' rejected; ' + D.zones + ' zones, ' + D.points.length / 3 + ' map points' + (D.gt ? '' : '; no ground truth');
   legend();
-  if (N > 0) setFrame(frameFromHash()); else mark();
+  if (N > 0) openFromHash(); else mark();
 })();
