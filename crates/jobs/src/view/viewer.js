@@ -291,7 +291,7 @@
     var pe = D.pos_err.filter(function (e) { return e !== null; }).sort(function (a, b) { return a - b; });
     plotMax = pe.length ? Math.max(pe[Math.floor(0.98 * (pe.length - 1))] * 1.1, 1e-3) : 1;
   } else {
-    plotMax = Math.max(D.zones - 1, 1);
+    plotMax = Math.max(D.zones, 1);
   }
   function plotX(i) { return PAD.l + (cp.width - PAD.l - PAD.r) * (N > 1 ? i / (N - 1) : 0.5); }
   function plotY(v) { return cp.height - PAD.b - (cp.height - PAD.t - PAD.b) * Math.min(v / plotMax, 1); }
@@ -302,8 +302,6 @@
     gp.fillStyle = '#aaa'; gp.font = '11px sans-serif';
     gp.fillText(D.pos_err ? plotMax.toFixed(1) + ' mm' : 'zone ' + plotMax, 2, PAD.t + 8);
     gp.fillText('0', PAD.l - 12, cp.height - PAD.b);
-    var caption = D.pos_err ? 'position error along the pass, by frame (click: go to frame)' : 'zone along the pass, by frame (no ground truth; click: go to frame)';
-    gp.fillText(caption, cp.width - PAD.r - gp.measureText(caption).width, PAD.t + 8);
     for (var k = 0; k <= 10 && N > 1; k++) {
       var f = Math.round(k * (N - 1) / 10), label = String(f);
       gp.fillText(label, plotX(f) - gp.measureText(label).width / 2, cp.height - 5);
@@ -318,6 +316,10 @@
       }
     }
     gp.strokeStyle = '#fff'; gp.beginPath(); gp.moveTo(plotX(cur), PAD.t); gp.lineTo(plotX(cur), cp.height - PAD.b); gp.stroke();
+    var caption = D.pos_err ? 'position error along the pass, by frame (click: go to frame)' : 'zone along the pass, by frame (no ground truth; click: go to frame)';
+    var cw = gp.measureText(caption).width;
+    gp.fillStyle = 'rgba(13,14,16,0.8)'; gp.fillRect(cp.width - PAD.r - cw - 4, PAD.t - 2, cw + 4, 14);
+    gp.fillStyle = '#aaa'; gp.fillText(caption, cp.width - PAD.r - cw - 2, PAD.t + 8);
   }
   cp.addEventListener('click', function (ev) {
     var rect = cp.getBoundingClientRect();
