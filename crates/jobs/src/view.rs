@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 use endoloc_data::{Dataset, StampedPose, read_tum};
 use endoloc_eval::{FrameRecord, read_frames_csv};
 use endoloc_geometry::{
-    Camera, Pose, Status, canonical_quaternion, orientation_error_deg, position_error_mm,
+    Camera, Distortion, Pose, Status, canonical_quaternion, orientation_error_deg,
+    position_error_mm,
 };
 use endoloc_localize::map_io::load_map;
 use rayon::prelude::*;
@@ -159,6 +160,18 @@ struct CameraData {
     fy: f64,
     cx: f64,
     cy: f64,
+    /// `radial-tangential` (`k1 k2 p1 p2 k3`) or `fisheye` (`k1 k2 k3 k4`); `None`: pinhole.
+    distortion: Option<(&'static str, [f64; 5])>,
+}
+
+fn distortion_of(camera: &Camera) -> Option<(&'static str, [f64; 5])> {
+    match camera.distortion {
+        Distortion::None => None,
+        Distortion::RadialTangential { k1, k2, p1, p2, k3 } => {
+            Some(("radial-tangential", [k1, k2, p1, p2, k3]))
+        }
+        Distortion::Fisheye { k1, k2, k3, k4 } => Some(("fisheye", [k1, k2, k3, k4, 0.0])),
+    }
 }
 
 #[derive(Debug, Serialize)]
@@ -494,6 +507,7 @@ impl ViewJob {
                 fy: camera.fy,
                 cx: camera.cx,
                 cy: camera.cy,
+                distortion: distortion_of(&camera),
             },
             thumb: ThumbData {
                 width: tw,

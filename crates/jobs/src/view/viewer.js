@@ -234,10 +234,26 @@
       var y = R[1] * dx + R[4] * dy + R[7] * dz;
       var zc = R[2] * dx + R[5] * dy + R[8] * dz;
       if (zc <= 1e-6) continue;
-      var u = (cam.fx * x / zc + cam.cx + 0.5) * k - 0.5, v = (cam.fy * y / zc + cam.cy + 0.5) * k - 0.5;
+      var xy = distort(x / zc, y / zc);
+      var u = (cam.fx * xy[0] + cam.cx + 0.5) * k - 0.5, v = (cam.fy * xy[1] + cam.cy + 0.5) * k - 0.5;
       if (u >= 0 && v >= 0 && u < ct.width && v < ct.height) out.push([u, v]);
     }
     return out;
+  }
+  function distort(x, y) { // normalized pinhole coordinates -> distorted (OpenCV models)
+    var d = D.camera.distortion;
+    if (!d) return [x, y];
+    var c = d[1];
+    if (d[0] === 'fisheye') {
+      var r = Math.sqrt(x * x + y * y);
+      if (r < 1e-12) return [x, y];
+      var th = Math.atan(r), t2 = th * th;
+      var s = th * (1 + t2 * (c[0] + t2 * (c[1] + t2 * (c[2] + t2 * c[3])))) / r;
+      return [x * s, y * s];
+    }
+    var r2 = x * x + y * y, radial = 1 + r2 * (c[0] + r2 * (c[1] + r2 * c[4]));
+    return [x * radial + 2 * c[2] * x * y + c[3] * (r2 + 2 * x * x),
+      y * radial + c[2] * (r2 + 2 * y * y) + 2 * c[3] * x * y];
   }
   function drawThumb() {
     var i = cur, pts = reprojection(i);
