@@ -284,7 +284,7 @@ fn estimates_per_frame(
     for p in est {
         let i = gt
             .iter()
-            .position(|g| (g.timestamp_s - p.timestamp_s).abs() < 1e-6)
+            .position(|g| (g.timestamp_s - p.timestamp_s).abs() < 1e-3)
             .with_context(|| {
                 format!(
                     "{}: timestamp {} is no frame of the test sequence",
@@ -592,6 +592,53 @@ mod tests {
         let err = job.run(&crate::Silent).unwrap_err().to_string();
         assert!(err.contains("not a localization run folder"), "{err}");
         assert!(err.contains("frames.csv"), "{err}");
+    }
+
+    fn row(frame: usize, status: Status) -> FrameRecord {
+        FrameRecord {
+            frame,
+            zone: Some(0),
+            zone_score: None,
+            status,
+            reason: String::new(),
+            inliers: None,
+            reprojection_rms_px: None,
+            time_ms: 1.0,
+        }
+    }
+
+    fn stamped(t: f64, x: f64) -> StampedPose {
+        StampedPose {
+            timestamp_s: t,
+            pose: Pose::translation(x, 0.0, 0.0),
+        }
+    }
+
+    #[test]
+    fn poses_go_to_frames_in_order_or_by_timestamp() {
+        let path = Path::new("run/trajectory.txt");
+        let rows = [
+            row(0, Status::Refined),
+            row(1, Status::Rejected),
+            row(2, Status::InitOnly),
+        ];
+        let est = [stamped(0.0, 1.0), stamped(0.0667, 3.0)];
+        let got = estimates_per_frame(&rows, &est, None, path).unwrap();
+        let x: Vec<Option<f64>> = got.iter().map(|p| p.map(|p| p.translation.x)).collect();
+        assert_eq!(x, [Some(1.0), None, Some(3.0)]);
+
+        // one pose fewer than the statuses say: matched by timestamp to the ground truth
+        let gt = [
+            stamped(0.0, 0.0),
+            stamped(0.0333, 0.0),
+            stamped(0.0667, 0.0),
+        ];
+        let got = estimates_per_frame(&rows, &est[1..], Some(&gt), path).unwrap();
+        assert!(got[0].is_none() && got[1].is_none() && got[2].is_some());
+        let err = estimates_per_frame(&rows, &est[1..], None, path)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("run/trajectory.txt"), "{err}");
     }
 
     #[test]
