@@ -321,7 +321,6 @@ fn bad_indices_and_nan_coordinates_are_errors_with_lines() {
     assert!(msg.contains("expected .vtk, .obj, .ply or .stl"), "{msg}");
 }
 
-
 #[test]
 fn real_gca_colon_surface() {
     let Some(path) = gca_file("large_intestine_20k.vtk") else {
