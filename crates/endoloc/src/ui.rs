@@ -21,6 +21,16 @@ pub fn init_logging(verbose: u8) {
         .try_init();
 }
 
+/// Prints a report on stdout. A closed stdout (`endoloc … | head`) is not an error: the job's
+/// files are written by then.
+pub fn print(report: &dyn std::fmt::Display) -> std::io::Result<()> {
+    use std::io::Write as _;
+    match writeln!(std::io::stdout().lock(), "{report}") {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other,
+    }
+}
+
 /// Progress bars on stderr (hidden when stderr is not a terminal, so that logs and CI output
 /// stay clean) and notes as lines on stderr; `quiet` keeps only warnings.
 pub struct Terminal {

@@ -11,7 +11,8 @@ use crate::bail;
 use crate::error::{Context, Result};
 use crate::output::{create_dir, replace_folder};
 use crate::progress::Progress;
-use crate::{EvalJob, LocalizeJob, MapJob, SimulateJob, TrainJob};
+use crate::localize::RunSummary;
+use crate::{EvalJob, LocalizeJob, MapJob, SimulateJob, TrainJob, ViewJob};
 
 /// The whole chain from one TOML file (`endoloc run --config experiment.toml`): every table is
 /// the stage's own job, with the same fields and defaults as its command. Paths between the
@@ -196,18 +197,24 @@ impl RunJob {
     }
 }
 
-/// The whole method on the built-in colon, from nothing to a report: the `small` simulated
-/// dataset, the Siamese zone classifier (a short schedule), the per-zone maps, live
-/// localization of the test pass and its evaluation.
+/// The whole method on the built-in colon, from nothing to a report: a small simulated
+/// dataset, the zone classifier (by default the shipped `builtin-joint` network indexing the
+/// training pass, no training; with `train`, the paper's classifier trained from scratch), the
+/// per-zone maps, live localization of the test pass, its evaluation and a viewer page.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DemoJob {
-    /// Output folder: `data/`, `model/`, `run/`, `run/eval/`.
+    /// Output folder: `data/`, `model/`, `run/` (with `view.html`), `run/eval/`.
     pub out: PathBuf,
     /// Uniform zones along the training pass.
     pub zones: usize,
-    /// Training epochs (a short schedule).
+    /// Train the paper's classifier from scratch (a short schedule of `epochs`) instead of
+    /// indexing the pass with the shipped network.
+    pub train: bool,
+    /// Training epochs with `train`.
     pub epochs: usize,
+    /// Image size of the simulated frames, pixels (`width`, `height`).
+    pub size: (u32, u32),
     /// SURF threshold of the map.
     pub threshold: f32,
     /// Master seed of the simulation and the training.
@@ -220,8 +227,10 @@ impl Default for DemoJob {
     fn default() -> Self {
         DemoJob {
             out: "endoloc-demo".into(),
-            zones: 20,
+            zones: 50,
+            train: false,
             epochs: 40,
+            size: (640, 480),
             threshold: MapJob::default().threshold,
             seed: 0,
             force: false,
@@ -229,21 +238,42 @@ impl Default for DemoJob {
     }
 }
 
-/// What the demo did: each stage's time and where the report is.
+/// What the demo did: each stage's time, the figures that matter and where to look next.
 #[derive(Debug, Clone)]
 pub struct DemoReport {
     /// Wall time per stage.
     pub timings: Timings,
-    /// The evaluation report (`run/eval/report.md`).
+    /// Fractions of test frames `refined`, in [0, 1].
+    pub refined: f64,
+    /// Mean and median position error over all test frames, mm.
+    pub position_mm: (f64, f64),
+    /// Mean and median orientation error over all test frames, degrees.
+    pub orientation_deg: (f64, f64),
+    /// Median time per frame of live localization, ms.
+    pub median_ms: f64,
+    /// The evaluation report (`run/eval/report.md`) and its `metrics.json`.
     pub report: PathBuf,
+    /// The viewer page (`run/view.html`).
+    pub view: PathBuf,
 }
 
 impl std::fmt::Display for DemoReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "demo done in {:.0} s", self.timings.total())?;
+        writeln!(f, "refined   {:.1} % of the test frames", 100.0 * self.refined)?;
+        writeln!(
+            f,
+            "error     mean {:.2} mm / {:.2}°, median {:.2} mm / {:.2}°",
+            self.position_mm.0,
+            self.orientation_deg.0,
+            self.position_mm.1,
+            self.orientation_deg.1
+        )?;
+        writeln!(f, "latency   median {:.1} ms per frame (live)", self.median_ms)?;
         write!(
             f,
-            "demo done in {:.0} s: report {}",
-            self.timings.total(),
+            "next      open {} (colon, map, scope, every frame); report {}",
+            self.view.display(),
             self.report.display()
         )
     }
@@ -262,22 +292,37 @@ impl DemoJob {
         let sim = SimulateJob {
             preset: "small".into(),
             seed: self.seed,
+            width: Some(self.size.0),
+            height: Some(self.size.1),
+            depth: Some(false),
             out: p("data"),
             ..SimulateJob::default()
         };
-        t.stage(progress, "1/5 simulate", sim.command_line(), || {
+        t.stage(progress, "1/6 simulate", sim.command_line(), || {
             sim.run(progress)
         })?;
-        let train = TrainJob {
-            data: p("data"),
-            zones: self.zones.to_string(),
-            out: p("model"),
-            schedule: "fast".into(),
-            epochs: Some(self.epochs),
-            seed: self.seed,
-            ..TrainJob::default()
+        let train = if self.train {
+            TrainJob {
+                data: p("data"),
+                zones: self.zones.to_string(),
+                out: p("model"),
+                schedule: "fast".into(),
+                epochs: Some(self.epochs),
+                seed: self.seed,
+                ..TrainJob::default()
+            }
+        } else {
+            TrainJob {
+                data: p("data"),
+                zones: self.zones.to_string(),
+                out: p("model"),
+                pretrained: Some("builtin-joint".into()),
+                epochs: Some(0),
+                seed: self.seed,
+                ..TrainJob::default()
+            }
         };
-        t.stage(progress, "2/5 train", train.command_line(), || {
+        t.stage(progress, "2/6 train", train.command_line(), || {
             train.run(progress)
         })?;
         let map = MapJob {
@@ -286,9 +331,7 @@ impl DemoJob {
             threshold: self.threshold,
             ..MapJob::default()
         };
-        t.stage(progress, "3/5 map", map.command_line(), || {
-            map.run(progress)
-        })?;
+        t.stage(progress, "3/6 map", map.command_line(), || map.run(progress))?;
         let localize = LocalizeJob {
             model: Some(p("model")),
             seq: p("data/test"),
@@ -296,7 +339,7 @@ impl DemoJob {
             live: true,
             ..LocalizeJob::default()
         };
-        t.stage(progress, "4/5 localize", localize.command_line(), || {
+        let run = t.stage(progress, "4/6 localize", localize.command_line(), || {
             localize.run(progress)
         })?;
         let eval = EvalJob {
@@ -306,12 +349,26 @@ impl DemoJob {
             out: p("run/eval"),
             ..EvalJob::default()
         };
-        t.stage(progress, "5/5 eval", eval.command_line(), || {
+        let evaluated = t.stage(progress, "5/6 eval", eval.command_line(), || {
             eval.run(progress)
         })?;
+        let view = ViewJob {
+            run: p("run"),
+            ..ViewJob::default()
+        };
+        let page = t.stage(progress, "6/6 view", view.command_line(), || {
+            view.run(progress)
+        })?;
+        let summary = RunSummary::of(&run.frames);
+        let m = &evaluated.evaluation.metrics;
         Ok(DemoReport {
             timings: t,
+            refined: summary.refined,
+            position_mm: (m.position_mm.mean, m.position_mm.median),
+            orientation_deg: (m.orientation_deg.mean, m.orientation_deg.median),
+            median_ms: summary.median_ms,
             report: p("run/eval/report.md"),
+            view: page.out,
         })
     }
 }
@@ -325,9 +382,13 @@ impl CommandLine {
     pub fn new(command: &str) -> Self {
         CommandLine(command.to_string())
     }
-    /// `--name value`.
+    /// `--name value`, or the bare `value` when `name` is empty (a positional argument).
     pub fn arg(mut self, name: &str, value: impl Display) -> Self {
-        self.0.push_str(&format!(" --{name} {value}"));
+        if name.is_empty() {
+            self.0.push_str(&format!(" {value}"));
+        } else {
+            self.0.push_str(&format!(" --{name} {value}"));
+        }
         self
     }
     /// `--name PATH`.
@@ -421,8 +482,23 @@ impl SimulateJob {
         CommandLine::new("simulate")
             .arg("preset", &self.preset)
             .arg("seed", self.seed)
+            .opt("width", self.width)
+            .opt("height", self.height)
+            .flag("depth", self.depth == Some(true))
+            .flag("no-depth", self.depth == Some(false))
             .opt("gca", self.gca.as_deref().map(show))
             .path("out", &self.out)
+            .flag("force", self.force)
+            .finish()
+    }
+}
+
+impl ViewJob {
+    /// The `endoloc view` command line of this job.
+    pub fn command_line(&self) -> String {
+        CommandLine::new("view")
+            .path("", &self.run)
+            .opt("out", self.out.as_deref().map(show))
             .flag("force", self.force)
             .finish()
     }

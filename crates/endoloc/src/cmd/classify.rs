@@ -167,7 +167,7 @@ impl From<Args> for ClassifyJob {
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
     let report = ClassifyJob::from(args).run(ui)?;
     if let Some(csv) = &report.csv {
-        print!("{csv}");
+        crate::ui::print(&csv.trim_end_matches('\n'))?;
     }
     eprintln!("{report}");
     Ok(())

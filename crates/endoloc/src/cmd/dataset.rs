@@ -50,7 +50,7 @@ impl From<Args> for DatasetJob {
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
     let job = DatasetJob::from(args);
     let report = job.run(ui)?;
-    println!("{report}");
+    crate::ui::print(&report)?;
     if report.problems() > 0 {
         bail!("{} problem(s) in {}", report.problems(), job.dir.display());
     }

@@ -5,18 +5,21 @@ use std::path::PathBuf;
 use anyhow::Result;
 use endoloc_jobs::{DemoJob, Progress};
 
-/// Run the whole pipeline on the built-in procedural colon, with no input files: simulate the
-/// `small` dataset, train the Siamese zone classifier, build the per-zone SURF maps, localize
-/// every test frame as a live video (frames in order, causal track filter, tracking from the
-/// last refined pose) and evaluate against the ground truth. Each stage is printed as the
-/// command a user would type, so the demo doubles as a tutorial.
+/// Run the whole method on the built-in procedural colon, with no input files: simulate a
+/// small dataset (300 + 300 frames at 640×480), index its training pass with the shipped
+/// zone classifier (`builtin-joint`, no training), build the per-zone SURF maps, localize every
+/// test frame as a live video (frames in order, causal track filter, tracking from the last
+/// refined pose), evaluate against the ground truth and write a viewer page. Each stage is
+/// printed as the command a user would type, so the demo doubles as a tutorial.
 ///
 /// Output folder layout: data/ (dataset), model/ (classifier, zones, maps), run/
-/// (trajectory.txt, frames.csv) and run/eval/ (metrics.json, report.md, plots).
+/// (trajectory.txt, frames.csv, view.html) and run/eval/ (metrics.json, report.md, plots).
 ///
-/// Example:
+/// Examples:
 ///
-///   endoloc demo --out endoloc-demo
+///   endoloc demo
+///
+///   endoloc demo --train --out endoloc-demo-trained     # the paper's classifier, trained here
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -26,9 +29,16 @@ pub struct Args {
     /// Uniform zones along the training pass.
     #[arg(long, default_value_t = DemoJob::default().zones)]
     zones: usize,
-    /// Training epochs (the demo's short schedule; `endoloc train` defaults to more).
+    /// Train the paper's Siamese classifier from scratch (a short schedule) instead of
+    /// indexing the pass with the shipped network.
+    #[arg(long)]
+    train: bool,
+    /// Training epochs with --train (`endoloc train` defaults to more).
     #[arg(long, default_value_t = DemoJob::default().epochs)]
     epochs: usize,
+    /// Image size of the simulated frames, WIDTHxHEIGHT.
+    #[arg(long, value_name = "WxH", default_value = "640x480", value_parser = parse_size)]
+    size: (u32, u32),
     /// SURF threshold of the map; test frames are described at twice it and retried at it.
     #[arg(long, default_value_t = DemoJob::default().threshold)]
     threshold: f32,
@@ -45,11 +55,23 @@ pub fn run(a: Args, ui: &dyn Progress) -> Result<()> {
     let job = DemoJob {
         out: a.out,
         zones: a.zones,
+        train: a.train,
         epochs: a.epochs,
+        size: a.size,
         threshold: a.threshold,
         seed: a.seed,
         force: a.force,
     };
-    eprintln!("\n{}", job.run(ui)?);
+    crate::ui::print(&format!("\n{}", job.run(ui)?))?;
     Ok(())
+}
+
+/// Parses `WIDTHxHEIGHT`.
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let parsed = s
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)));
+    parsed
+        .filter(|&(w, h): &(u32, u32)| w >= 16 && h >= 16)
+        .ok_or_else(|| format!("{s}: expected WIDTHxHEIGHT, e.g. 640x480"))
 }

@@ -113,6 +113,6 @@ impl From<Args> for EvalJob {
 
 /// Runs `endoloc eval`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
-    println!("{}", EvalJob::from(args).run(ui)?);
+    crate::ui::print(&EvalJob::from(args).run(ui)?)?;
     Ok(())
 }

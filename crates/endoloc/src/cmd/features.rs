@@ -97,6 +97,6 @@ impl From<Args> for FeaturesJob {
 
 /// Runs `endoloc features`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
-    println!("{}", FeaturesJob::from(args).run(ui)?);
+    crate::ui::print(&FeaturesJob::from(args).run(ui)?)?;
     Ok(())
 }

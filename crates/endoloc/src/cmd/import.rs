@@ -218,6 +218,6 @@ impl From<Args> for ImportJob {
 
 /// Runs `endoloc import …`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
-    println!("{}", ImportJob::from(args).run(ui)?);
+    crate::ui::print(&ImportJob::from(args).run(ui)?)?;
     Ok(())
 }

@@ -56,7 +56,7 @@ impl From<MapArgs> for MapJob {
 
 /// Runs `endoloc map`.
 pub fn run_map(args: MapArgs, ui: &dyn Progress) -> Result<()> {
-    println!("{}", MapJob::from(args).run(ui)?);
+    crate::ui::print(&MapJob::from(args).run(ui)?)?;
     Ok(())
 }
 
@@ -212,6 +212,6 @@ impl From<LocalizeArgs> for LocalizeJob {
 
 /// Runs `endoloc localize`.
 pub fn run_localize(args: LocalizeArgs, ui: &dyn Progress) -> Result<()> {
-    println!("{}", LocalizeJob::from(args).run(ui)?);
+    crate::ui::print(&LocalizeJob::from(args).run(ui)?)?;
     Ok(())
 }

@@ -117,6 +117,6 @@ impl From<Args> for PretrainJob {
 
 /// Runs `endoloc pretrain`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
-    println!("{}", PretrainJob::from(args).run(ui)?);
+    crate::ui::print(&PretrainJob::from(args).run(ui)?)?;
     Ok(())
 }

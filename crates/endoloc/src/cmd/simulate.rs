@@ -169,6 +169,6 @@ pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
         print!("{}", job.sim_config()?.to_toml()?);
         return Ok(());
     }
-    println!("{}", job.run(ui)?);
+    crate::ui::print(&job.run(ui)?)?;
     Ok(())
 }

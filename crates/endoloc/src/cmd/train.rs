@@ -247,6 +247,6 @@ pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
             .build_global()
             .context("setting the thread count")?;
     }
-    println!("{}", TrainJob::from(args).run(ui)?);
+    crate::ui::print(&TrainJob::from(args).run(ui)?)?;
     Ok(())
 }

@@ -73,6 +73,6 @@ impl From<Args> for ViewJob {
 
 /// Runs `endoloc view`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
-    println!("{}", ViewJob::from(args).run(ui)?);
+    crate::ui::print(&ViewJob::from(args).run(ui)?)?;
     Ok(())
 }
