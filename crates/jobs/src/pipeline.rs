@@ -9,9 +9,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::bail;
 use crate::error::{Context, Result};
+use crate::localize::RunSummary;
 use crate::output::{create_dir, replace_folder};
 use crate::progress::Progress;
-use crate::localize::RunSummary;
 use crate::{EvalJob, LocalizeJob, MapJob, SimulateJob, TrainJob, ViewJob};
 
 /// The whole chain from one TOML file (`endoloc run --config experiment.toml`): every table is
@@ -260,16 +260,21 @@ pub struct DemoReport {
 impl std::fmt::Display for DemoReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "demo done in {:.0} s", self.timings.total())?;
-        writeln!(f, "refined   {:.1} % of the test frames", 100.0 * self.refined)?;
+        writeln!(
+            f,
+            "refined   {:.1} % of the test frames",
+            100.0 * self.refined
+        )?;
         writeln!(
             f,
             "error     mean {:.2} mm / {:.2}°, median {:.2} mm / {:.2}°",
-            self.position_mm.0,
-            self.orientation_deg.0,
-            self.position_mm.1,
-            self.orientation_deg.1
+            self.position_mm.0, self.orientation_deg.0, self.position_mm.1, self.orientation_deg.1
         )?;
-        writeln!(f, "latency   median {:.1} ms per frame (live)", self.median_ms)?;
+        writeln!(
+            f,
+            "latency   median {:.1} ms per frame (live)",
+            self.median_ms
+        )?;
         write!(
             f,
             "next      open {} (colon, map, scope, every frame); report {}",
@@ -331,7 +336,9 @@ impl DemoJob {
             threshold: self.threshold,
             ..MapJob::default()
         };
-        t.stage(progress, "3/6 map", map.command_line(), || map.run(progress))?;
+        t.stage(progress, "3/6 map", map.command_line(), || {
+            map.run(progress)
+        })?;
         let localize = LocalizeJob {
             model: Some(p("model")),
             seq: p("data/test"),

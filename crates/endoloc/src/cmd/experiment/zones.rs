@@ -14,9 +14,8 @@ use endoloc_jobs::experiment::*;
 /// zone table, not on the seed: each count maps once, and the test frames' SURF features are
 /// extracted once for the whole sweep.
 ///
-/// Time: one run is one training (`--epochs`, the dominant cost) + ~1 min of look-up and
-/// localization; the defaults (17 counts × 10 runs × 30 epochs) take about 8 hours on two
-/// cores — a night.
+/// Time: each run is one training (`--epochs`, the dominant cost) plus about a minute of
+/// look-up and localization; docs/RESULTS.md gives the measured wall time of the defaults.
 ///
 /// Example:
 ///
