@@ -407,22 +407,56 @@ impl MethodOutput {
     }
 }
 
-/// One method's figures on the test sequence.
+/// What an experiment wrote: its rows (the figures), the table shown to the user and the
+/// files in its output folder.
+#[derive(Debug, Clone)]
+pub struct ExperimentReport<R> {
+    /// One row per method, run or offset.
+    pub rows: Vec<R>,
+    /// The rows as a markdown table.
+    pub table: String,
+    /// The output folder.
+    pub out: PathBuf,
+    /// The files written into it (tables, plots, report).
+    pub files: Vec<&'static str>,
+}
+
+impl<R> std::fmt::Display for ExperimentReport<R> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "\n{}", self.table.trim_end())?;
+        write!(
+            f,
+            "wrote     {}/{}",
+            self.out.display(),
+            self.files.join(", ")
+        )
+    }
+}
+
+/// One method's figures on the test sequence (errors over the frames it localizes).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub(super) struct MethodRow {
+pub struct MethodRow {
+    /// Short name (folder name and table row).
     pub method: String,
+    /// One line on what it is.
     pub description: String,
+    /// Test frames.
     pub frames: usize,
     /// Frames with a pose.
     pub localized: usize,
     /// Frames `refined` (our method only).
     pub refined: Option<usize>,
+    /// Mean position error, mm.
     pub mean_position_mm: Option<f64>,
+    /// Median position error, mm.
     pub median_position_mm: Option<f64>,
+    /// Mean orientation error, degrees.
     pub mean_orientation_deg: Option<f64>,
+    /// Median orientation error, degrees.
     pub median_orientation_deg: Option<f64>,
-    /// Errors over the `refined` frames only (our method).
+    /// Mean position error over the `refined` frames only (our method), mm.
     pub refined_mean_position_mm: Option<f64>,
+    /// Mean orientation error over the `refined` frames only (our method), degrees.
     pub refined_mean_orientation_deg: Option<f64>,
     /// Median time per frame, ms.
     pub ms_per_frame: f64,

@@ -9,8 +9,8 @@ use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
 
 use super::common::{
-    self, Data, DataArgs, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
-    ensure_model, predict_zones, run_endoloc, write_and_evaluate,
+    self, Data, DataArgs, ExperimentReport, FeatureCache, MethodOutput, MethodRow, TrainSpec,
+    ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc, write_and_evaluate,
 };
 use crate::baselines::{self, Regressor};
 use crate::note;
@@ -169,7 +169,7 @@ impl CompareJob {
     ///
     /// # Errors
     /// Bad inputs, a failed stage, or an output folder that holds something else.
-    pub fn run(&self, progress: &dyn Progress) -> Result<()> {
+    pub fn run(&self, progress: &dyn Progress) -> Result<ExperimentReport<MethodRow>> {
         let args = self;
         common::prepare_out(&args.out, "compare.toml", args.force)?;
         let data = Data::from_args(&args.data)?;
@@ -239,7 +239,13 @@ impl CompareJob {
             print_row(&row, progress);
             rows.push(row);
         }
-        write_outputs(&args.out, &rows, &saved, progress)
+        let table = write_outputs(&args.out, &rows, &saved, progress)?;
+        Ok(ExperimentReport {
+            rows,
+            table,
+            out: args.out.clone(),
+            files: vec!["compare.md", "compare.json", "compare.png", "report.html"],
+        })
     }
 }
 
@@ -428,7 +434,7 @@ fn write_outputs(
     rows: &[MethodRow],
     saved: &Saved<'_>,
     progress: &dyn Progress,
-) -> Result<()> {
+) -> Result<String> {
     let table = common::markdown_table(rows);
     let margin = margins(rows);
     let mut md = String::from("# Method comparison (the paper's Table I)\n\n");
@@ -480,11 +486,5 @@ fn write_outputs(
     html.push(endoloc_eval::Block::Heading("Configuration".into()))
         .push(endoloc_eval::Block::Code(toml::to_string_pretty(saved)?));
     common::write_text(&out.join("report.html"), &html.render())?;
-    note!(progress, "\n{table}");
-    note!(
-        progress,
-        "wrote     {}/compare.md, compare.json, compare.png, report.html",
-        out.display()
-    );
-    Ok(())
+    Ok(table)
 }

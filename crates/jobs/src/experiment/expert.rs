@@ -12,10 +12,9 @@ use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
 
 use super::common::{
-    self, Data, DataArgs, FeatureCache, MethodOutput, MethodRow, TrainSpec, ZoneChoice, ensure_map,
-    ensure_model, predict_zones, run_endoloc, write_and_evaluate,
+    self, Data, DataArgs, ExperimentReport, FeatureCache, MethodOutput, MethodRow, TrainSpec,
+    ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc, write_and_evaluate,
 };
-use crate::note;
 use crate::progress::Progress;
 
 /// Anatomical ("expert") zones against uniform ones: train one model on the sections of
@@ -97,7 +96,7 @@ impl ExpertJob {
     ///
     /// # Errors
     /// Bad inputs, a failed stage, or an output folder that holds something else.
-    pub fn run(&self, progress: &dyn Progress) -> Result<()> {
+    pub fn run(&self, progress: &dyn Progress) -> Result<ExperimentReport<MethodRow>> {
         let args = self;
         common::prepare_out(&args.out, "expert.md", args.force)?;
         let data = Data::from_args(&args.data)?;
@@ -176,12 +175,11 @@ impl ExpertJob {
             html.push(b);
         }
         common::write_text(&args.out.join("report.html"), &html.render())?;
-        note!(progress, "\n{table}");
-        note!(
-            progress,
-            "wrote     {}/expert.md, expert.json, expert.png, report.html",
-            args.out.display()
-        );
-        Ok(())
+        Ok(ExperimentReport {
+            rows,
+            table,
+            out: args.out.clone(),
+            files: vec!["expert.md", "expert.json", "expert.png", "report.html"],
+        })
     }
 }

@@ -16,8 +16,8 @@ mod expert;
 mod perturb;
 mod zones;
 
-pub use common::DataArgs as ExperimentData;
+pub use common::{DataArgs as ExperimentData, ExperimentReport, MethodRow};
 pub use compare::{CompareJob, Method as CompareMethod};
 pub use expert::ExpertJob;
-pub use perturb::PerturbJob;
-pub use zones::ZoneSweepJob;
+pub use perturb::{PerturbJob, Row as PerturbRow};
+pub use zones::{RunRow as SweepRun, ZoneSweepJob};

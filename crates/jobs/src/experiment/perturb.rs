@@ -15,9 +15,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::common::{
-    self, Data, DataArgs, FeatureCache, TrainSpec, ensure_map, ensure_model, pose_error,
+    self, Data, DataArgs, ExperimentReport, FeatureCache, TrainSpec, ensure_map, ensure_model,
+    pose_error,
 };
-use crate::note;
 use crate::progress::{Progress, bar};
 
 /// Force the zone of each test frame to k ± e (k: its true zone, from the ground-truth pose)
@@ -66,18 +66,27 @@ impl Default for PerturbJob {
     }
 }
 
-/// Errors at one offset.
+/// Errors at one forced zone offset.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-struct Row {
-    offset: i64,
-    frames: usize,
-    refined: usize,
-    localized: usize,
-    mean_position_mm: Option<f64>,
-    median_position_mm: Option<f64>,
-    mean_orientation_deg: Option<f64>,
-    median_orientation_deg: Option<f64>,
-    refined_mean_position_mm: Option<f64>,
+pub struct Row {
+    /// The offset e: frames are localized from zone k + e, k their true zone.
+    pub offset: i64,
+    /// Test frames used.
+    pub frames: usize,
+    /// Frames `refined`.
+    pub refined: usize,
+    /// Frames with a pose.
+    pub localized: usize,
+    /// Mean position error, mm.
+    pub mean_position_mm: Option<f64>,
+    /// Median position error, mm.
+    pub median_position_mm: Option<f64>,
+    /// Mean orientation error, degrees.
+    pub mean_orientation_deg: Option<f64>,
+    /// Median orientation error, degrees.
+    pub median_orientation_deg: Option<f64>,
+    /// Mean position error over the `refined` frames, mm.
+    pub refined_mean_position_mm: Option<f64>,
 }
 
 /// One frame at one offset: its status and, with a pose, its position (mm) and orientation
@@ -89,7 +98,7 @@ impl PerturbJob {
     ///
     /// # Errors
     /// Bad inputs, a failed stage, or an output folder that holds something else.
-    pub fn run(&self, progress: &dyn Progress) -> Result<()> {
+    pub fn run(&self, progress: &dyn Progress) -> Result<ExperimentReport<Row>> {
         let args = self;
         common::prepare_out(&args.out, "perturb.md", args.force)?;
         let data = Data::from_args(&args.data)?;
@@ -271,12 +280,11 @@ impl PerturbJob {
         }
         common::write_text(&args.out.join("report.html"), &html.render())
             .context("writing report.html")?;
-        print!("{}", md.lines().skip(4).collect::<Vec<_>>().join("\n"));
-        note!(
-            progress,
-            "\nwrote     {}/perturb.csv, perturb.md, perturb.png, report.html",
-            args.out.display()
-        );
-        Ok(())
+        Ok(ExperimentReport {
+            rows,
+            table: md.lines().skip(4).collect::<Vec<_>>().join("\n"),
+            out: args.out.clone(),
+            files: vec!["perturb.csv", "perturb.md", "perturb.png", "report.html"],
+        })
     }
 }

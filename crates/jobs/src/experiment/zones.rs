@@ -12,8 +12,8 @@ use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
 
 use super::common::{
-    self, Data, DataArgs, FeatureCache, TrainSpec, ZoneChoice, ensure_map, ensure_model,
-    pose_error, predict_zones, run_endoloc,
+    self, Data, DataArgs, ExperimentReport, FeatureCache, TrainSpec, ZoneChoice, ensure_map,
+    ensure_model, pose_error, predict_zones, run_endoloc,
 };
 use crate::note;
 use crate::progress::Progress;
@@ -64,20 +64,31 @@ impl Default for ZoneSweepJob {
     }
 }
 
-/// One finished run.
+/// One finished run of the sweep.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-struct RunRow {
-    zones: usize,
-    run: usize,
-    seed: u64,
-    frames: usize,
-    refined: usize,
-    localized: usize,
-    mean_position_mm: f64,
-    median_position_mm: f64,
-    mean_orientation_deg: f64,
-    median_orientation_deg: f64,
-    seconds: f64,
+pub struct RunRow {
+    /// Zone count.
+    pub zones: usize,
+    /// Run index at this count.
+    pub run: usize,
+    /// Training seed.
+    pub seed: u64,
+    /// Test frames.
+    pub frames: usize,
+    /// Frames `refined`.
+    pub refined: usize,
+    /// Frames with a pose.
+    pub localized: usize,
+    /// Mean position error, mm.
+    pub mean_position_mm: f64,
+    /// Median position error, mm.
+    pub median_position_mm: f64,
+    /// Mean orientation error, degrees.
+    pub mean_orientation_deg: f64,
+    /// Median orientation error, degrees.
+    pub median_orientation_deg: f64,
+    /// Wall time of the run, seconds.
+    pub seconds: f64,
 }
 
 const RESULTS: &str = "results.csv";
@@ -156,7 +167,7 @@ impl ZoneSweepJob {
     ///
     /// # Errors
     /// Bad inputs, a failed stage, or an output folder that holds something else.
-    pub fn run(&self, progress: &dyn Progress) -> Result<()> {
+    pub fn run(&self, progress: &dyn Progress) -> Result<ExperimentReport<RunRow>> {
         let args = self;
         if args.step == 0 || args.from == 0 || args.from > args.to || args.runs == 0 {
             bail!(
@@ -263,7 +274,13 @@ impl ZoneSweepJob {
                 }
             }
         }
-        write_outputs(args, &rows, progress)
+        let table = write_outputs(args, &rows, progress)?;
+        Ok(ExperimentReport {
+            rows,
+            table,
+            out: args.out.clone(),
+            files: vec!["results.csv", "zones.md", "zones.png", "report.html"],
+        })
     }
 }
 
@@ -296,7 +313,7 @@ fn eta(start: Instant, done: usize, left: usize) -> String {
     format!(" (about {:.0} min left)", s / 60.0)
 }
 
-fn write_outputs(args: &ZoneSweepJob, rows: &[RunRow], progress: &dyn Progress) -> Result<()> {
+fn write_outputs(args: &ZoneSweepJob, rows: &[RunRow], progress: &dyn Progress) -> Result<String> {
     let mut by_count: BTreeMap<usize, Vec<&RunRow>> = BTreeMap::new();
     for r in rows {
         by_count.entry(r.zones).or_default().push(r);
@@ -409,17 +426,7 @@ fn write_outputs(args: &ZoneSweepJob, rows: &[RunRow], progress: &dyn Progress) 
         html.push(b);
     }
     common::write_text(&args.out.join("report.html"), &html.render())?;
-    note!(
-        progress,
-        "\n{}",
-        md.lines().skip(4).collect::<Vec<_>>().join("\n")
-    );
-    note!(
-        progress,
-        "wrote     {}/results.csv, zones.md, zones.png, report.html",
-        args.out.display()
-    );
-    Ok(())
+    Ok(md.lines().skip(4).collect::<Vec<_>>().join("\n"))
 }
 
 #[cfg(test)]

@@ -67,6 +67,6 @@ impl From<Args> for CompareJob {
 
 /// Runs `endoloc experiment compare`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
-    CompareJob::from(args).run(ui)?;
+    crate::ui::print(&CompareJob::from(args).run(ui)?)?;
     Ok(())
 }

@@ -66,6 +66,6 @@ impl From<Args> for ExpertJob {
 
 /// Runs `endoloc experiment expert`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
-    ExpertJob::from(args).run(ui)?;
+    crate::ui::print(&ExpertJob::from(args).run(ui)?)?;
     Ok(())
 }

@@ -72,6 +72,6 @@ impl From<Args> for PerturbJob {
 
 /// Runs `endoloc experiment perturb`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
-    PerturbJob::from(args).run(ui)?;
+    crate::ui::print(&PerturbJob::from(args).run(ui)?)?;
     Ok(())
 }

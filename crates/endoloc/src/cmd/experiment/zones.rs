@@ -79,6 +79,6 @@ impl From<Args> for ZoneSweepJob {
 
 /// Runs `endoloc experiment zones`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
-    ZoneSweepJob::from(args).run(ui)?;
+    crate::ui::print(&ZoneSweepJob::from(args).run(ui)?)?;
     Ok(())
 }
