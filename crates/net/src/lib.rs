@@ -44,6 +44,9 @@ pub mod view;
 pub mod whiten;
 pub mod zones;
 
+#[cfg(test)]
+mod config_tests;
+
 pub use augment::AugmentConfig;
 pub use backbone::{BackboneConfig, EmbeddingNet};
 pub use classifier::ZoneClassifier;
