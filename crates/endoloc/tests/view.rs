@@ -118,6 +118,12 @@ fn fake_run(root: &Path, with_gt: bool) -> PathBuf {
         })
         .collect();
     write_frames_csv(&run.join("frames.csv"), &rows).unwrap();
+    // Frame 0 matched three keypoints, frame 1 one, the others none.
+    std::fs::write(
+        run.join("inliers.csv"),
+        "frame,x_px,y_px\n0,10.0,20.0\n0,30.5,40.25\n0,50,60\n1,5,5\n",
+    )
+    .unwrap();
     let est: Vec<StampedPose> = poses
         .iter()
         .enumerate()
@@ -168,6 +174,8 @@ fn the_page_is_one_self_contained_file_with_the_run() {
     );
     let data = page_data(&html);
     assert_eq!(data["frames"], FRAMES);
+    assert_eq!(data["keypoints"][0].as_array().unwrap().len(), 6);
+    assert_eq!(data["keypoints"][1].as_array().unwrap().len(), 2);
     assert_eq!(data["images"].as_array().unwrap().len(), FRAMES);
     assert_eq!(data["est"].as_array().unwrap().len(), FRAMES);
     assert!(data["est"][3].is_null(), "a rejected frame has no pose");
@@ -369,4 +377,6 @@ fn the_page_draws_in_a_headless_browser() {
         .parse()
         .unwrap();
     assert!(reproj > 0, "no map point reprojected onto frame 0");
+    assert_eq!(body_attr(&dom0, "data-keypoints").as_deref(), Some("3"));
+    assert_eq!(body_attr(&dom5, "data-keypoints").as_deref(), Some("0"));
 }

@@ -411,7 +411,7 @@ fn stamped(
         .collect()
 }
 
-/// Writes `trajectory.txt` and `frames.csv` of a localization run into `out`.
+/// Writes `trajectory.txt`, `frames.csv` and `inliers.csv` of a localization run into `out`.
 ///
 /// # Errors
 /// A folder or file that cannot be written.
@@ -420,7 +420,60 @@ pub fn write_results(out: &Path, seq: &Sequence, results: &[FrameResult]) -> Res
     let trajectory = stamped(seq, results.iter().map(|r| r.t_wc));
     endoloc_data::write_tum(&out.join("trajectory.txt"), &trajectory)?;
     write_frames_csv(&out.join("frames.csv"), &frame_records(results))?;
+    endoloc_data::write_atomic(&out.join(INLIERS_FILE), inliers_csv(results).as_bytes())?;
     Ok(())
+}
+
+/// The file of a localization run that lists the inlier keypoints of every frame.
+pub const INLIERS_FILE: &str = "inliers.csv";
+
+/// `inliers.csv`: header `frame,x_px,y_px`, then one row per inlier keypoint of each frame's
+/// final estimate (pixels, origin at the centre of the top-left pixel).
+pub fn inliers_csv(results: &[FrameResult]) -> String {
+    use std::fmt::Write as _;
+    let mut csv = String::from("frame,x_px,y_px\n");
+    for (i, r) in results.iter().enumerate() {
+        for [x, y] in &r.inlier_px {
+            let _ = writeln!(csv, "{i},{x:.2},{y:.2}");
+        }
+    }
+    csv
+}
+
+/// Reads an `inliers.csv`: the inlier keypoints of each of `frames` frames.
+///
+/// # Errors
+/// A row that is not `frame,x_px,y_px` with numbers, or a frame index out of range, named by
+/// its line.
+pub fn read_inliers_csv(path: &Path, frames: usize) -> Result<Vec<Vec<[f32; 2]>>> {
+    let text = std::fs::read_to_string(path).map_err(|e| JobError::io(path, e))?;
+    let mut out = vec![Vec::new(); frames];
+    for (k, line) in text.lines().enumerate().skip(1) {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let bad = || {
+            JobError::Invalid(format!(
+                "{} line {}: expected `frame,x_px,y_px` with a frame below {frames}, found {line:?}",
+                path.display(),
+                k + 1
+            ))
+        };
+        let mut cols = line.split(',').map(str::trim);
+        let (Some(f), Some(x), Some(y), None) =
+            (cols.next(), cols.next(), cols.next(), cols.next())
+        else {
+            return Err(bad());
+        };
+        let (Ok(f), Ok(x), Ok(y)) = (f.parse::<usize>(), x.parse::<f32>(), y.parse::<f32>()) else {
+            return Err(bad());
+        };
+        if f >= frames || !x.is_finite() || !y.is_finite() {
+            return Err(bad());
+        }
+        out[f].push([x, y]);
+    }
+    Ok(out)
 }
 
 /// The `frames.csv` rows of a run, one per frame in order.
@@ -552,6 +605,21 @@ mod tests {
         );
         let from_toml: LocalizeJob = toml::from_str("").unwrap();
         assert_eq!(from_toml, LocalizeJob::default());
+    }
+
+    #[test]
+    fn inliers_round_trip_and_a_bad_line_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join(INLIERS_FILE);
+        std::fs::write(&p, "frame,x_px,y_px\n0,1.5,2.25\n2,10,20\n").unwrap();
+        let back = read_inliers_csv(&p, 3).unwrap();
+        assert_eq!(back, vec![vec![[1.5, 2.25]], vec![], vec![[10.0, 20.0]]]);
+        std::fs::write(&p, "frame,x_px,y_px\n0,1.5\n").unwrap();
+        let e = read_inliers_csv(&p, 3).unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("frame,x_px,y_px"), "{e}");
+        std::fs::write(&p, "frame,x_px,y_px\n7,1,1\n").unwrap();
+        let e = read_inliers_csv(&p, 3).unwrap_err().to_string();
+        assert!(e.contains("below 3"), "{e}");
     }
 
     #[test]

@@ -147,6 +147,8 @@ struct PageData {
     time_ms: Vec<f64>,
     pos_err: Option<Vec<Option<f64>>>,
     rot_err: Option<Vec<Option<f64>>>,
+    /// Inlier keypoints per frame, flat `x y …` in image pixels, when the run recorded them.
+    keypoints: Option<Vec<Vec<f64>>>,
     /// Base64 thumbnails, one per frame (`image_mime`).
     images: Vec<String>,
     image_mime: &'static str,
@@ -361,6 +363,26 @@ impl ViewJob {
             }
         }
         let n = rows.len();
+        let inliers_path = run.join(crate::localize::INLIERS_FILE);
+        let keypoints = if inliers_path.is_file() {
+            let per_frame = crate::localize::read_inliers_csv(&inliers_path, n)?;
+            Some(
+                per_frame
+                    .iter()
+                    .map(|f| {
+                        f.iter()
+                            .flat_map(|p| [round(p[0] as f64, 1), round(p[1] as f64, 1)])
+                            .collect()
+                    })
+                    .collect(),
+            )
+        } else {
+            missing.push(format!(
+                "matched keypoints: no {}",
+                crate::localize::INLIERS_FILE
+            ));
+            None
+        };
         let images = list_images(&seq)?;
         if images.len() != n {
             bail!(
@@ -541,6 +563,7 @@ impl ViewJob {
             time_ms: rows.iter().map(|r| round(r.time_ms, 2)).collect(),
             pos_err,
             rot_err,
+            keypoints,
             images: thumbs,
             image_mime: "image/jpeg",
             points,

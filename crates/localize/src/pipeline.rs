@@ -138,6 +138,9 @@ pub struct FrameResult {
     pub correspondences: usize,
     /// Inliers of the final estimate.
     pub inliers: usize,
+    /// Pixel positions of those inliers' keypoints in the test image (origin at the centre of
+    /// the top-left pixel, x right, y down), in match order.
+    pub inlier_px: Vec<[f32; 2]>,
     /// RMS reprojection error of the inliers, pixels (NaN when no estimate).
     pub reprojection_rms_px: f64,
     /// Per-stage time.
@@ -340,6 +343,14 @@ impl Localizer {
             .estimate
             .as_ref()
             .map_or((0, f64::NAN), |e| (e.inlier_count, e.rms_px));
+        let inlier_px = result.estimate.as_ref().map_or_else(Vec::new, |e| {
+            pixels
+                .iter()
+                .zip(&e.inliers)
+                .filter(|(_, inlier)| **inlier)
+                .map(|(p, _)| [p.x as f32, p.y as f32])
+                .collect()
+        });
         Ok(FrameResult {
             zone,
             zone_score,
@@ -348,6 +359,7 @@ impl Localizer {
             t_wc: result.t_wc,
             correspondences: matches.len(),
             inliers,
+            inlier_px,
             reprojection_rms_px: rms,
             times,
         })

@@ -173,6 +173,12 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
             .unwrap();
         if r.status == Status::Refined {
             errors.push(position_error_mm(&r, &test.poses[i].pose));
+            // Every inlier's keypoint is reported, inside the image.
+            assert_eq!(r.inlier_px.len(), r.inliers);
+            let cam = &f.ds.meta.camera;
+            assert!(r.inlier_px.iter().all(|&[x, y]| {
+                x >= -0.5 && y >= -0.5 && x < cam.width as f32 && y < cam.height as f32
+            }));
         }
     }
     errors.sort_by(f64::total_cmp);

@@ -101,7 +101,7 @@
     yaw: 0, el: Math.PI / 2 * 0.75, dist: 2.6 * scene.radius,
     target: scene.centre.slice()
   };
-  var drawnPoints = 0, reprojected = 0;
+  var drawnPoints = 0, reprojected = 0, matched = 0;
 
   // ---- 3-D view ---------------------------------------------------------------------------
   var c3 = $('view3d'), g3 = c3.getContext('2d');
@@ -255,9 +255,16 @@
     return [x * radial + 2 * c[2] * x * y + c[3] * (r2 + 2 * x * x),
       y * radial + c[2] * (r2 + 2 * y * y) + 2 * c[3] * x * y];
   }
+  function keypoints(i) { // the frame's inlier keypoints on the thumbnail canvas
+    var out = [], kp = D.keypoints ? D.keypoints[i] : null, k = ct.width / D.camera.width;
+    if (!kp) return out;
+    for (var j = 0; j + 1 < kp.length; j += 2) out.push([(kp[j] + 0.5) * k - 0.5, (kp[j + 1] + 0.5) * k - 0.5]);
+    return out;
+  }
   function drawThumb() {
-    var i = cur, pts = reprojection(i);
+    var i = cur, pts = reprojection(i), kps = keypoints(i);
     reprojected = pts.length;
+    matched = kps.length;
     var img = imgCache[i];
     function paint() {
       if (i !== cur) return;
@@ -265,6 +272,8 @@
       if (img.complete && img.naturalWidth) gt2.drawImage(img, 0, 0, ct.width, ct.height);
       gt2.fillStyle = '#00ff88';
       pts.forEach(function (p) { gt2.fillRect(p[0] - 1.5, p[1] - 1.5, 3, 3); });
+      gt2.strokeStyle = '#ffd23f'; gt2.lineWidth = 1;
+      kps.forEach(function (p) { gt2.beginPath(); gt2.arc(p[0], p[1], 3.5, 0, 2 * Math.PI); gt2.stroke(); });
     }
     if (!img) {
       img = new Image();
@@ -287,7 +296,8 @@
       ['inliers', D.inliers[i] === null ? '—' : String(D.inliers[i])],
       ['reprojection RMS', fmt(D.rms[i], 2, ' px')],
       ['time', fmt(D.time_ms[i], 1, ' ms')],
-      ['map points shown', String(reprojected)]
+      ['map points shown', String(reprojected)],
+      ['matched keypoints', D.keypoints ? String(matched) : '—']
     ];
     if (D.pos_err) {
       rows.push(['position error', fmt(D.pos_err[i], 2, ' mm')]);
@@ -362,6 +372,7 @@
     body.setAttribute('data-frame', String(cur));
     body.setAttribute('data-drawn-points', String(drawnPoints));
     body.setAttribute('data-reprojected', String(reprojected));
+    body.setAttribute('data-keypoints', String(matched));
     body.setAttribute('data-zone', String(D.zone[cur]));
     body.setAttribute('data-status', STATUS[D.status[cur]]);
     body.setAttribute('data-errors', String(window.viewerErrors || 0));
