@@ -426,6 +426,57 @@ fn every_method_and_experiment_writes_its_outputs() {
     assert_eq!(offsets, ["-1", "0", "1"]);
     assert!(st.root.join("perturb/report.html").is_file());
 
+    // A corrupt frame (a truncated PNG, as a live scope drops and corrupts frames) is
+    // `rejected` with reason `unreadable_image` and the run goes on; `--strict` stops at it
+    // and names the file, each cause once. The frame is restored afterwards.
+    let corrupt = st.root.join("data/test/images/000005.png");
+    let png = std::fs::read(&corrupt).unwrap();
+    std::fs::write(&corrupt, &png[..png.len() / 2]).unwrap();
+    for (out, mode) in [
+        ("run-corrupt-live", "--live"),
+        ("run-corrupt", "--neighbours=1"),
+    ] {
+        let text = ok(&[
+            "localize",
+            "--model",
+            &r("model"),
+            "--seq",
+            &r("data/test"),
+            "--out",
+            &r(out),
+            mode,
+        ]);
+        assert!(text.contains("(1 unreadable images)"), "{out}: {text}");
+        let frames = std::fs::read_to_string(st.root.join(out).join("frames.csv")).unwrap();
+        let row5 = frames.lines().nth(6).unwrap();
+        assert!(
+            row5.starts_with("5,") && row5.contains(",rejected,unreadable_image,"),
+            "{out}: {row5}"
+        );
+        assert_eq!(frames.lines().count(), 41, "{out}: every frame has its row");
+    }
+    let err = fails(&[
+        "localize",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--out",
+        &r("run-strict"),
+        "--strict",
+    ]);
+    assert!(err.contains("000005.png"), "{err}");
+    let first = err.lines().next().unwrap_or_default();
+    let causes: Vec<&str> = first.split(": ").collect();
+    for (k, c) in causes.iter().enumerate() {
+        assert!(!causes[k + 1..].contains(c), "a cause said twice: {first}");
+    }
+    assert!(
+        !st.root.join("run-strict/frames.csv").exists(),
+        "no partial output"
+    );
+    std::fs::write(&corrupt, &png).unwrap();
+
     // The pretraining recipe: a second pass joins the pairs, and a model starts from our
     // own weights.
     let text = ok(&[

@@ -120,11 +120,16 @@ pub enum Reason {
         /// What was found, e.g. the solver's message.
         detail: String,
     },
+    /// The frame's image could not be read or decoded (a dropped or corrupt frame).
+    UnreadableImage {
+        /// The decoder's or the file system's message.
+        detail: String,
+    },
 }
 
 impl Reason {
     /// A stable keyword: `too_few_correspondences`, `too_few_inliers`, `rms_too_high`,
-    /// `jump_too_large` or `degenerate_geometry`.
+    /// `jump_too_large`, `degenerate_geometry` or `unreadable_image`.
     pub fn code(&self) -> &'static str {
         match self {
             Reason::TooFewCorrespondences { .. } => "too_few_correspondences",
@@ -132,6 +137,7 @@ impl Reason {
             Reason::RmsTooHigh { .. } => "rms_too_high",
             Reason::JumpTooLarge { .. } => "jump_too_large",
             Reason::DegenerateGeometry { .. } => "degenerate_geometry",
+            Reason::UnreadableImage { .. } => "unreadable_image",
         }
     }
 }
@@ -155,6 +161,9 @@ impl std::fmt::Display for Reason {
             ),
             Reason::DegenerateGeometry { detail } => {
                 write!(f, "degenerate geometry ({})", detail.replace(',', ";"))
+            }
+            Reason::UnreadableImage { detail } => {
+                write!(f, "unreadable image ({})", detail.replace(',', ";"))
             }
         }
     }

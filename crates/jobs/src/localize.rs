@@ -97,6 +97,9 @@ pub struct LocalizeJob {
     pub max_rms_px: f64,
     /// Validity: largest jump from the prior, mm.
     pub max_jump_mm: f64,
+    /// Stop at the first image that cannot be read instead of reporting the frame as
+    /// `rejected` (`unreadable_image`) and going on.
+    pub strict: bool,
     /// Replace existing results in `out`.
     pub force: bool,
 }
@@ -125,6 +128,7 @@ impl Default for LocalizeJob {
             max_sigma_mm: validity.max_position_sigma_mm,
             max_rms_px: validity.max_rms_px,
             max_jump_mm: validity.max_jump_mm,
+            strict: false,
             force: false,
         }
     }
@@ -231,12 +235,27 @@ impl LocalizeJob {
                 n as u64,
                 if self.live { "live" } else { "localize" },
             );
+            // An unreadable frame is reported and skipped, unless `strict`.
+            let load = |i: usize| -> Result<std::result::Result<image::GrayImage, FrameResult>> {
+                match seq.load_gray(i) {
+                    Ok(img) => Ok(Ok(img)),
+                    Err(e) if !self.strict => {
+                        progress.note(&format!(
+                            "warning: frame {i} rejected (unreadable_image): {e}"
+                        ));
+                        Ok(Err(FrameResult::unreadable(e.to_string())))
+                    }
+                    Err(e) => Err(e.into()),
+                }
+            };
             if self.live {
                 let mut state = localizer.live_state();
                 let mut out = Vec::with_capacity(n);
                 for i in 0..n {
-                    let img = seq.load_gray(i)?;
-                    out.push(localizer.localize_live(&mut state, &img)?);
+                    out.push(match load(i)? {
+                        Ok(img) => localizer.localize_live(&mut state, &img)?,
+                        Err(unreadable) => unreadable,
+                    });
                     bar.inc(1);
                 }
                 out
@@ -244,8 +263,10 @@ impl LocalizeJob {
                 (0..n)
                     .into_par_iter()
                     .map(|i| {
-                        let img = seq.load_gray(i)?;
-                        let r = localizer.localize(&img)?;
+                        let r = match load(i)? {
+                            Ok(img) => localizer.localize(&img)?,
+                            Err(unreadable) => unreadable,
+                        };
                         bar.inc(1);
                         Ok(r)
                     })
@@ -483,14 +504,14 @@ pub fn frame_records(results: &[FrameResult]) -> Vec<FrameRecord> {
         .enumerate()
         .map(|(i, r)| FrameRecord {
             frame: i,
-            zone: Some(r.zone),
-            zone_score: Some(r.zone_score as f64),
+            zone: r.has_zone().then_some(r.zone),
+            zone_score: r.has_zone().then_some(r.zone_score as f64),
             status: r.status,
             reason: r
                 .reason
                 .as_ref()
                 .map_or(String::new(), |x| x.code().to_string()),
-            inliers: Some(r.inliers),
+            inliers: r.has_zone().then_some(r.inliers),
             reprojection_rms_px: r
                 .reprojection_rms_px
                 .is_finite()
@@ -511,6 +532,8 @@ pub struct RunSummary {
     pub init_only: f64,
     /// See [`RunSummary::refined`].
     pub rejected: f64,
+    /// Frames whose image could not be read (counted in `rejected`).
+    pub unreadable: usize,
     /// Median total time per frame, ms.
     pub median_ms: f64,
     /// Median zone, SURF, matching and refinement times, ms.
@@ -532,6 +555,7 @@ impl RunSummary {
             refined: count(Status::Refined),
             init_only: count(Status::InitOnly),
             rejected: count(Status::Rejected),
+            unreadable: results.iter().filter(|r| !r.has_zone()).count(),
             median_ms: median(&|r| r.times.total_ms()),
             median_stage_ms: [
                 median(&|r| r.times.zone_ms),
@@ -545,9 +569,14 @@ impl RunSummary {
 
 impl fmt::Display for RunSummary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let unreadable = if self.unreadable > 0 {
+            format!(" ({} unreadable images)", self.unreadable)
+        } else {
+            String::new()
+        };
         writeln!(
             f,
-            "frames    {} — refined {:.1} %, init_only {:.1} %, rejected {:.1} %",
+            "frames    {} — refined {:.1} %, init_only {:.1} %, rejected {:.1} %{unreadable}",
             self.frames,
             100.0 * self.refined,
             100.0 * self.init_only,

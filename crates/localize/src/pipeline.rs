@@ -147,6 +147,36 @@ pub struct FrameResult {
     pub times: StageTimes,
 }
 
+impl FrameResult {
+    /// The zone of a frame that has none ([`FrameResult::unreadable`]).
+    pub const NO_ZONE: usize = usize::MAX;
+
+    /// A frame whose image could not be read or decoded: `rejected` with reason
+    /// `unreadable_image`, no zone ([`FrameResult::NO_ZONE`]) and no pose. A live scope drops
+    /// and corrupts frames; a run reports them and goes on.
+    pub fn unreadable(detail: impl Into<String>) -> Self {
+        FrameResult {
+            zone: Self::NO_ZONE,
+            zone_score: f32::NAN,
+            status: Status::Rejected,
+            reason: Some(Reason::UnreadableImage {
+                detail: detail.into(),
+            }),
+            t_wc: None,
+            correspondences: 0,
+            inliers: 0,
+            inlier_px: Vec::new(),
+            reprojection_rms_px: f64::NAN,
+            times: StageTimes::default(),
+        }
+    }
+
+    /// Whether the frame was given a zone (false for an unreadable frame).
+    pub fn has_zone(&self) -> bool {
+        self.zone != Self::NO_ZONE
+    }
+}
+
 /// A ready-to-run localizer: classifier, maps and settings.
 pub struct Localizer {
     classifier: ZoneClassifier,

@@ -148,6 +148,10 @@ pub struct LocalizeArgs {
     /// refined pose), mm.
     #[arg(long, default_value_t = LocalizeJob::default().max_jump_mm)]
     max_jump_mm: f64,
+    /// Stop at the first image that cannot be read (for batch checks) instead of
+    /// reporting the frame as `rejected` (reason `unreadable_image`) and going on.
+    #[arg(long)]
+    strict: bool,
     /// Replace existing results in --out.
     #[arg(long)]
     force: bool,
@@ -205,6 +209,7 @@ impl From<LocalizeArgs> for LocalizeJob {
             max_sigma_mm: a.max_sigma_mm,
             max_rms_px: a.max_rms_px,
             max_jump_mm: a.max_jump_mm,
+            strict: a.strict,
             force: a.force,
         }
     }
