@@ -1,5 +1,6 @@
-//! C3VD import: column-major `pose.txt`, natural frame order, 16-bit TIFF depth, fisheye
-//! camera and undistortion, and errors that name the file and line.
+//! C3VD import: column-major `pose.txt`, images paired with pose lines by frame number
+//! (subsampled recordings), 16-bit TIFF depth with clipped values as no depth, fisheye camera
+//! and undistortion, and errors that name the file and line.
 
 use endoloc_data::import::c3vd::{C3vdConfig, read_c3vd, read_c3vd_poses};
 use endoloc_data::import::{WriteImportConfig, write_import};
@@ -211,7 +212,125 @@ fn count_mismatch_and_missing_depth_are_errors() {
     )
     .unwrap_err()
     .to_string();
-    assert!(e.contains("pose.txt") && e.contains("3 poses but 4"), "{e}");
+    assert!(
+        e.contains("pose.txt") && e.contains("3_color.png") && e.contains("3 pose lines"),
+        "{e}"
+    );
+}
+
+/// A recording that keeps all 31 pose lines but only images 0, 10, 20, 30 (unpadded), with
+/// depth `0000_depth.tiff` … `0030_depth.tiff` (padded) of value 100·(n+1).
+fn subsampled_fixture(dir: &Path) {
+    std::fs::create_dir_all(dir).unwrap();
+    let mut text = String::new();
+    for i in 0..31 {
+        writeln!(text, "{}", c3vd_line(&truth(i))).unwrap();
+        if i % 10 == 0 {
+            write_rgb(&dir.join(format!("{i}_color.png")), i as u8);
+            write_depth_tiff(
+                &dir.join(format!("{i:04}_depth.tiff")),
+                100 * (i as u16 + 1),
+            );
+        }
+    }
+    std::fs::write(dir.join("pose.txt"), text).unwrap();
+}
+
+#[test]
+fn subsampled_images_take_the_pose_line_and_time_of_their_frame_number() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = tmp.path().join("sigmoid_t3_a");
+    subsampled_fixture(&src);
+    let seq = read_c3vd(&src, &config()).unwrap();
+    assert_eq!(seq.frames.len(), 4);
+    assert!(
+        seq.notes
+            .iter()
+            .any(|n| n.contains("4 of 31 pose lines have an image (every 10th frame)")),
+        "{:?}",
+        seq.notes
+    );
+    for (k, f) in seq.frames.iter().enumerate() {
+        let n = 10 * k;
+        assert!(f.image.ends_with(format!("{n}_color.png")));
+        assert!(
+            f.depth
+                .as_ref()
+                .unwrap()
+                .ends_with(format!("{n:04}_depth.tiff"))
+        );
+    }
+
+    let out = tmp.path().join("ds");
+    let wc = WriteImportConfig {
+        name: "c3vd".into(),
+        ..Default::default()
+    };
+    write_import(&out, &[("all".to_string(), seq)], &wc).unwrap();
+    let ds = Dataset::open(&out).unwrap();
+    let s = ds.sequence("all").unwrap();
+    assert_eq!(s.len(), 4);
+    for k in 0..4 {
+        let n = 10 * k;
+        let p = &s.poses[k];
+        assert!(
+            (p.timestamp_s - n as f64 / 10.0).abs() < 1e-9,
+            "frame {n}: {} s",
+            p.timestamp_s
+        );
+        let dt = (p.pose.translation.vector - truth(n).translation.vector).norm();
+        assert!(dt < 1e-6, "frame {n}: {dt} mm");
+        assert!(
+            orientation_error_deg(&p.pose, &truth(n)) < 1e-6,
+            "frame {n}"
+        );
+        assert_eq!(s.load_rgb(k).unwrap().get_pixel(0, 0)[0], n as u8);
+        let (_, _, d) = s.load_depth_mm(k).unwrap();
+        let expect = 100.0 * (n as f64 + 1.0) / 65535.0 * 100.0;
+        assert!((d[5] as f64 - expect).abs() < 0.006, "frame {n}: {}", d[5]);
+    }
+}
+
+#[test]
+fn clipped_depth_65535_is_imported_as_no_depth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = tmp.path().join("rec");
+    fixture(&src, 1, true);
+    let mut img =
+        image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_pixel(W, H, image::Luma([1000]));
+    img.put_pixel(0, 0, image::Luma([65535]));
+    img.put_pixel(1, 0, image::Luma([65534]));
+    img.save(src.join("0000_depth.tiff")).unwrap();
+    let seq = read_c3vd(&src, &config()).unwrap();
+    let out = tmp.path().join("ds");
+    let wc = WriteImportConfig {
+        name: "c3vd".into(),
+        ..Default::default()
+    };
+    write_import(&out, &[("all".to_string(), seq)], &wc).unwrap();
+    let s = Dataset::open(&out).unwrap().sequence("all").unwrap();
+    let (_, _, d) = s.load_depth_mm(0).unwrap();
+    assert_eq!(d[0], 0.0, "65535 is C3VD's clipped depth: no depth");
+    let near_max = 65534.0 / 65535.0 * 100.0;
+    assert!((d[1] as f64 - near_max).abs() < 0.006, "{}", d[1]);
+    let expect = 1000.0 / 65535.0 * 100.0;
+    assert!((d[2] as f64 - expect).abs() < 0.006, "{}", d[2]);
+}
+
+#[test]
+fn image_numbered_beyond_the_pose_lines_is_refused_naming_the_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = tmp.path().join("rec");
+    subsampled_fixture(&src);
+    write_rgb(&src.join("40_color.png"), 40);
+    write_depth_tiff(&src.join("0040_depth.tiff"), 4100);
+    let e = read_c3vd(&src, &config()).unwrap_err();
+    let msg = e.to_string();
+    assert!(matches!(e, DataError::Invalid { .. }), "{msg}");
+    assert!(
+        msg.contains("40_color.png") && msg.contains("frame 40") && msg.contains("31 pose lines"),
+        "{msg}"
+    );
 }
 
 #[test]

@@ -5,10 +5,15 @@
 //!   stored column by column: reshaped row-major they give the *transpose* of the transform, so
 //!   the translation is at values 13–15 (1-based) and values 4, 8, 12, 16 are `0 0 0 1`. The
 //!   transform is camera-to-world (`T_wc`) in millimetres.
-//! - `{n}_color.png`: the frames, numbered without padding (`0_color.png`, `1_color.png`, …,
-//!   `10_color.png`); frame order is numeric (natural sort), the n-th pose line is frame n.
-//! - optional `{NNNN}_depth.tiff`: 16-bit depth along the optical axis, `mm = v / 65535 × 100`
-//!   (0–100 mm), joined to the colour frames by number.
+//! - `{n}_color.png`: the frames, numbered with or without zero padding (`0_color.png`,
+//!   `1_color.png`, …, `10_color.png`). Each image takes the pose line of its number: pose line
+//!   n (0-based, blank lines skipped) is frame n. A recording may keep every pose line but only
+//!   some images (e.g. every 30th frame); the frames without an image are skipped. An image
+//!   whose number has no pose line is an error.
+//! - optional `{n}_depth.tiff` (usually padded: `0030_depth.tiff`): 16-bit depth along the
+//!   optical axis, `mm = v / 65535 × 100` (0–100 mm), joined to the colour frames by number.
+//!   The value 65535 is C3VD's clipped depth, which C3VD's own loader treats as invalid; it is
+//!   imported as no depth (0).
 //!
 //! # Assumptions
 //! - C3VD's camera frame already has OpenCV axes (x right, y down, z forward: its depth maps
@@ -21,7 +26,8 @@
 //!   lengths and principal point (bilinear; depth nearest-neighbour); the outer ring of the
 //!   fisheye image that falls outside this pinhole's field of view is lost, and target pixels
 //!   that map outside the source image are black (depth 0).
-//! - C3VD has no time stamps; frame `i` gets `i / fps` seconds.
+//! - C3VD has no time stamps; frame n (the number in the file name) gets `n / fps` seconds, so
+//!   a subsampled recording keeps its real timing.
 
 use super::{
     DepthEncoding, ImportedFrame, ImportedSequence, list_files, natural_sort, parse_field,
@@ -43,6 +49,9 @@ pub const ROTATION_TOLERANCE: f64 = 1e-3;
 
 /// C3VD's depth scale: millimetres per 16-bit unit (`100 / 65535`).
 pub const DEPTH_MM_PER_UNIT: f64 = 100.0 / 65535.0;
+
+/// C3VD's clipped depth value, imported as no depth.
+pub const DEPTH_INVALID: u16 = u16::MAX;
 
 /// The widely used pinhole + OpenCV-fisheye approximation of C3VD's camera, 1350×1080 pixels:
 /// fx 767.386, fy 767.506, cx 679.054, cy 543.647; k1..k4 −0.18867, −0.00393, 0.03052,
@@ -69,7 +78,8 @@ pub fn c3vd_camera() -> Camera {
 pub struct C3vdConfig {
     /// The camera of the images (default [`c3vd_camera`]); its size must match the images.
     pub camera: Camera,
-    /// Frame rate giving the time stamps `i / fps`, frames per second (default 30).
+    /// Frame rate giving the time stamps `n / fps` (n: the frame number), frames per second
+    /// (default 30).
     pub fps: f64,
     /// Import the depth maps when the folder has them (default true).
     pub depth: bool,
@@ -153,9 +163,10 @@ pub fn read_c3vd_poses(path: &Path) -> Result<Vec<Pose>, DataError> {
 /// Reads one C3VD recording folder `src` (see the [module docs](self)).
 ///
 /// # Errors
-/// [`DataError::Io`] / [`DataError::Parse`] from `pose.txt`; [`DataError::Invalid`] when the
-/// number of `*_color.png` images differs from the number of poses, when no image is found,
-/// when some frames have a depth map and others not, or for a bad `fps`.
+/// [`DataError::Io`] / [`DataError::Parse`] from `pose.txt`; [`DataError::Invalid`] when an
+/// image's frame number has no pose line, when no image is found, when two images (or depth
+/// maps) share a frame number, when some frames have a depth map and others not, or for a bad
+/// `fps`.
 pub fn read_c3vd(src: &Path, config: &C3vdConfig) -> Result<ImportedSequence, DataError> {
     if !(config.fps.is_finite() && config.fps > 0.0) {
         return Err(DataError::invalid(
@@ -172,14 +183,17 @@ pub fn read_c3vd(src: &Path, config: &C3vdConfig) -> Result<ImportedSequence, Da
             "no `{n}_color.png` images; expected a C3VD recording folder",
         ));
     }
-    if colors.len() != poses.len() {
+    if let Some((n, img)) = colors.iter().find(|(n, _)| *n >= poses.len() as u64) {
+        let have = match poses.len() {
+            0 => "no pose lines".to_string(),
+            1 => "1 pose line (frame 0)".to_string(),
+            k => format!("{k} pose lines (frames 0-{})", k - 1),
+        };
         return Err(DataError::invalid(
             &pose_path,
             format!(
-                "{} poses but {} `*_color.png` images in {}; expected one pose line per image",
-                poses.len(),
-                colors.len(),
-                src.display()
+                "{} is frame {n} but {POSE_FILE} has {have}; expected a pose line (line n = frame n) for every image's number",
+                img.display()
             ),
         ));
     }
@@ -191,6 +205,14 @@ pub fn read_c3vd(src: &Path, config: &C3vdConfig) -> Result<ImportedSequence, Da
         BTreeMap::new()
     };
     let mut notes = Vec::new();
+    if colors.len() < poses.len() {
+        notes.push(format!(
+            "{} of {} pose lines have an image ({}); time stamps are frame number / fps",
+            colors.len(),
+            poses.len(),
+            describe_frames(&colors)
+        ));
+    }
     if !depth.is_empty() {
         if let Some((n, p)) = colors.iter().find(|(n, _)| !depth.contains_key(n)) {
             return Err(DataError::invalid(
@@ -202,23 +224,24 @@ pub fn read_c3vd(src: &Path, config: &C3vdConfig) -> Result<ImportedSequence, Da
                 ),
             ));
         }
-        if depth.len() > colors.len() {
+        let unused = depth.len() - colors.len();
+        if unused > 0 {
             notes.push(format!(
-                "{} depth maps without a colour image ignored",
-                depth.len() - colors.len()
+                "{unused} depth maps without a colour image ignored"
             ));
         }
+        notes.push(format!(
+            "depth value {DEPTH_INVALID} (C3VD's clipped depth) imported as no depth"
+        ));
     }
     let frames = colors
         .iter()
-        .zip(&poses)
-        .enumerate()
-        .map(|(i, ((n, img), pose))| ImportedFrame {
+        .map(|(n, img)| ImportedFrame {
             image: img.clone(),
             depth: depth.get(n).cloned(),
             pose: StampedPose {
-                timestamp_s: i as f64 / config.fps,
-                pose: *pose,
+                timestamp_s: *n as f64 / config.fps,
+                pose: poses[*n as usize],
             },
         })
         .collect();
@@ -227,8 +250,76 @@ pub fn read_c3vd(src: &Path, config: &C3vdConfig) -> Result<ImportedSequence, Da
         frames,
         depth_encoding: (!depth.is_empty()).then_some(DepthEncoding {
             mm_per_unit: DEPTH_MM_PER_UNIT,
+            invalid_value: Some(DEPTH_INVALID),
         }),
         camera: config.camera,
         notes,
     })
+}
+
+/// Which frames `frames` (sorted, distinct, non-empty) are: "every 30th frame", "frames
+/// 5-99" or "frames 0-270, irregularly spaced".
+fn describe_frames(frames: &[(u64, std::path::PathBuf)]) -> String {
+    let first = frames.first().map_or(0, |f| f.0);
+    let last = frames.last().map_or(0, |f| f.0);
+    let steps: Vec<u64> = frames.windows(2).map(|w| w[1].0 - w[0].0).collect();
+    match steps.first() {
+        Some(&d) if d > 1 && steps.iter().all(|&s| s == d) => {
+            let start = if first == 0 {
+                String::new()
+            } else {
+                format!(", from frame {first}")
+            };
+            format!("every {} frame{start}", ordinal(d))
+        }
+        Some(_) if steps.iter().any(|&s| s != steps[0]) => {
+            format!("frames {first}-{last}, irregularly spaced")
+        }
+        _ if first == last => format!("frame {first}"),
+        _ => format!("frames {first}-{last}"),
+    }
+}
+
+/// `2` → "2nd", `30` → "30th".
+fn ordinal(n: u64) -> String {
+    let suffix = match (n % 10, n % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
+    };
+    format!("{n}{suffix}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn frames(ns: &[u64]) -> Vec<(u64, PathBuf)> {
+        ns.iter()
+            .map(|&n| (n, PathBuf::from(format!("{n}_color.png"))))
+            .collect()
+    }
+
+    #[test]
+    fn describes_which_frames_have_an_image() {
+        let every_30th: Vec<u64> = (0..10).map(|k| 30 * k).collect();
+        assert_eq!(describe_frames(&frames(&every_30th)), "every 30th frame");
+        assert_eq!(
+            describe_frames(&frames(&[5, 7, 9])),
+            "every 2nd frame, from frame 5"
+        );
+        assert_eq!(describe_frames(&frames(&[0, 1, 2, 3])), "frames 0-3");
+        assert_eq!(
+            describe_frames(&frames(&[0, 1, 5])),
+            "frames 0-5, irregularly spaced"
+        );
+        assert_eq!(describe_frames(&frames(&[4])), "frame 4");
+        assert_eq!(ordinal(1), "1st");
+        assert_eq!(ordinal(3), "3rd");
+        assert_eq!(ordinal(11), "11th");
+        assert_eq!(ordinal(22), "22nd");
+    }
 }

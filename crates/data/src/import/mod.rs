@@ -32,6 +32,9 @@ use std::path::{Path, PathBuf};
 pub struct DepthEncoding {
     /// Millimetres per stored unit (C3VD: 100 / 65535; SimCol3D: 200 / 65280).
     pub mm_per_unit: f64,
+    /// A stored value that means "no depth" besides 0 (C3VD: 65535, its clipped depth); such
+    /// pixels are imported as 0 (no depth).
+    pub invalid_value: Option<u16>,
 }
 
 /// One frame of an imported recording.
@@ -336,7 +339,13 @@ fn read_depth_mm(path: &Path, enc: DepthEncoding) -> Result<(u32, u32, Vec<f32>)
     let mm = g
         .as_raw()
         .iter()
-        .map(|&v| (v as f64 * scale) as f32)
+        .map(|&v| {
+            if enc.invalid_value == Some(v) {
+                0.0
+            } else {
+                (v as f64 * scale) as f32
+            }
+        })
         .collect();
     Ok((g.width(), g.height(), mm))
 }

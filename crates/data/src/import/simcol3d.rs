@@ -313,6 +313,7 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
     }
     let depth_encoding = (!depth.is_empty()).then_some(DepthEncoding {
         mm_per_unit: DEPTH_MM_PER_UNIT,
+        invalid_value: None,
     });
     let mut frames = Vec::with_capacity(images.len());
     for (i, ((n, image), ((_, t), (line, q)))) in images
