@@ -45,15 +45,7 @@ impl ImageCache {
         for chunk in frames.chunks(64) {
             let part: Result<Vec<Vec<f32>>, NetError> = chunk
                 .par_iter()
-                .map(|&i| {
-                    let g = seq.load_gray(i)?;
-                    Ok(resize_area(
-                        g.as_raw(),
-                        g.width() as usize,
-                        g.height() as usize,
-                        size,
-                    ))
-                })
+                .map(|&i| load_resized(seq, i, size))
                 .collect();
             images.extend(part?);
             progress(images.len());
@@ -168,15 +160,7 @@ impl ValidationSet {
         let frames: Vec<usize> = (0..m).map(|i| i * n / m).collect();
         let imgs: Result<Vec<Vec<f32>>, NetError> = frames
             .par_iter()
-            .map(|&i| {
-                let g = seq.load_gray(i)?;
-                Ok(resize_area(
-                    g.as_raw(),
-                    g.width() as usize,
-                    g.height() as usize,
-                    size,
-                ))
-            })
+            .map(|&i| load_resized(seq, i, size))
             .collect();
         let poses: Vec<_> = frames.iter().map(|&i| seq.poses[i].pose).collect();
         let truth = zones
@@ -316,4 +300,15 @@ pub(crate) fn validation_set(
         cfg.backbone.input(),
         cfg.validation.max_queries,
     )?))
+}
+
+/// Frame `i` of `seq` as grey values resized (area average) to the network's input.
+fn load_resized(seq: &Sequence, i: usize, size: InputSize) -> Result<Vec<f32>, NetError> {
+    let g = seq.load_gray(i)?;
+    Ok(resize_area(
+        g.as_raw(),
+        g.width() as usize,
+        g.height() as usize,
+        size,
+    ))
 }
