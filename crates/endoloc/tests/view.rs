@@ -114,6 +114,9 @@ fn fake_run(root: &Path, with_gt: bool) -> PathBuf {
             },
             inliers: Some(30 + i),
             reprojection_rms_px: Some(1.25),
+            source: "refined".into(),
+            position_std_mm: None,
+            orientation_std_deg: None,
             time_ms: 12.5,
         })
         .collect();

@@ -3,10 +3,10 @@
 //! The header is exactly [`FRAMES_CSV_HEADER`]:
 //!
 //! ```text
-//! frame,zone,zone_score,status,reason,inliers,reprojection_rms_px,time_ms
-//! 0,12,0.8731,refined,,143,0.84,41.2
-//! 1,12,0.8012,init_only,too_few_inliers,5,,38.9
-//! 2,-1,,rejected,jump_too_large,61,1.20,40.0
+//! frame,zone,zone_score,status,reason,source,inliers,reprojection_rms_px,position_std_mm,orientation_std_deg,time_ms
+//! 0,12,0.8731,refined,,refined,143,0.84,0.21,0.18,41.2
+//! 1,12,0.8012,init_only,too_few_inliers,predicted,5,,,,38.9
+//! 2,-1,,rejected,jump_too_large,none,61,1.20,,,40.0
 //! ```
 //!
 //! | column | meaning |
@@ -16,11 +16,16 @@
 //! | `zone_score` | score of the predicted zone (e.g. descriptor similarity); empty when none |
 //! | `status` | `refined` \| `init_only` \| `rejected` ([`endoloc_geometry::Status`]) |
 //! | `reason` | why the frame is not `refined`: a keyword without commas or quotes (`Reason::code`); empty when refined |
+//! | `source` | where the frame's pose comes from: `refined` (registered to the map), `predicted` (live motion model), `zone_median` (the zone's median training pose), `none` (no pose) |
 //! | `inliers` | inlier count of the pose refinement; empty when not attempted |
 //! | `reprojection_rms_px` | inlier reprojection RMS, pixels; empty when not available |
+//! | `position_std_mm` | standard deviation of the camera centre along its least certain direction, mm, from the Gauss-Newton covariance (calibrated: the 95 % bound is [`BOUND95_PER_STD`] × this); empty unless `refined` |
+//! | `orientation_std_deg` | standard deviation of the orientation about its least certain axis, degrees (same calibration); empty unless `refined` |
 //! | `time_ms` | wall time spent on the frame, milliseconds |
 //!
-//! No quoting: fields never contain commas. Blank lines are ignored.
+//! No quoting: fields never contain commas. Blank lines are ignored. Files with the earlier
+//! eight-column header ([`FRAMES_CSV_HEADER_V1`], without `source` and the standard
+//! deviations) are still read.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -32,10 +37,20 @@ use crate::EvalError;
 use crate::output::write_atomic;
 
 /// The header line of `frames.csv`, exactly.
-pub const FRAMES_CSV_HEADER: &str =
+pub const FRAMES_CSV_HEADER: &str = "frame,zone,zone_score,status,reason,source,inliers,reprojection_rms_px,position_std_mm,orientation_std_deg,time_ms";
+
+/// The header of the eight-column layout without `source` and the standard deviations; still
+/// read.
+pub const FRAMES_CSV_HEADER_V1: &str =
     "frame,zone,zone_score,status,reason,inliers,reprojection_rms_px,time_ms";
 
-const COLUMNS: usize = 8;
+/// The 95 % bound on a refined frame's position (orientation) error is this many times its
+/// `position_std_mm` (`orientation_std_deg`): the two-sided 95 % quantile of a normal
+/// distribution along the least certain direction.
+pub const BOUND95_PER_STD: f64 = 1.96;
+
+const COLUMNS: usize = 11;
+const COLUMNS_V1: usize = 8;
 
 /// One row of `frames.csv`: what the localizer did with one test frame.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -51,10 +66,19 @@ pub struct FrameRecord {
     /// Keyword saying why the frame is not `refined` (empty when refined); no commas, quotes
     /// or line breaks.
     pub reason: String,
+    /// Where the pose comes from (`refined`, `predicted`, `zone_median`, `none`); a keyword
+    /// without commas or quotes, empty when unknown (files in the eight-column layout).
+    pub source: String,
     /// Inliers of the pose refinement, `None` when it was not attempted.
     pub inliers: Option<usize>,
     /// Inlier reprojection RMS, pixels; `None` when not available.
     pub reprojection_rms_px: Option<f64>,
+    /// Calibrated standard deviation of the camera centre along its least certain direction,
+    /// mm; `None` unless refined.
+    pub position_std_mm: Option<f64>,
+    /// Calibrated standard deviation of the orientation about its least certain axis, degrees;
+    /// `None` unless refined.
+    pub orientation_std_deg: Option<f64>,
     /// Wall time spent on the frame, milliseconds.
     pub time_ms: f64,
 }
@@ -96,13 +120,24 @@ fn opt_usize(s: &str, name: &str) -> Result<Option<usize>, String> {
         .map_err(|_| format!("{name}: {s:?} is not a non-negative integer (or empty)"))
 }
 
-fn parse_row(line: &str) -> Result<FrameRecord, String> {
-    let cols: Vec<&str> = line.split(',').map(str::trim).collect();
-    if cols.len() != COLUMNS {
+fn parse_row(line: &str, v1: bool) -> Result<FrameRecord, String> {
+    let mut cols: Vec<&str> = line.split(',').map(str::trim).collect();
+    let (expected, header) = if v1 {
+        (COLUMNS_V1, FRAMES_CSV_HEADER_V1)
+    } else {
+        (COLUMNS, FRAMES_CSV_HEADER)
+    };
+    if cols.len() != expected {
         return Err(format!(
-            "expected {COLUMNS} comma-separated columns ({FRAMES_CSV_HEADER}); found {}",
+            "expected {expected} comma-separated columns ({header}); found {}",
             cols.len()
         ));
+    }
+    if v1 {
+        // Same meaning, fewer columns: read as the current layout with the new ones empty.
+        cols.insert(5, "");
+        cols.insert(8, "");
+        cols.insert(9, "");
     }
     let frame = cols[0]
         .parse()
@@ -114,15 +149,18 @@ fn parse_row(line: &str) -> Result<FrameRecord, String> {
                 .map_err(|_| format!("zone: {z:?} is not a zone index, -1 or empty"))?,
         ),
     };
-    let time_ms = opt_f64(cols[7], "time_ms")?.ok_or("time_ms: empty; expected milliseconds")?;
+    let time_ms = opt_f64(cols[10], "time_ms")?.ok_or("time_ms: empty; expected milliseconds")?;
     Ok(FrameRecord {
         frame,
         zone,
         zone_score: opt_f64(cols[2], "zone_score")?,
         status: status_from_str(cols[3])?,
         reason: cols[4].to_string(),
-        inliers: opt_usize(cols[5], "inliers")?,
-        reprojection_rms_px: opt_f64(cols[6], "reprojection_rms_px")?,
+        source: cols[5].to_string(),
+        inliers: opt_usize(cols[6], "inliers")?,
+        reprojection_rms_px: opt_f64(cols[7], "reprojection_rms_px")?,
+        position_std_mm: opt_f64(cols[8], "position_std_mm")?,
+        orientation_std_deg: opt_f64(cols[9], "orientation_std_deg")?,
         time_ms,
     })
 }
@@ -137,8 +175,9 @@ pub fn parse_frames_csv(text: &str, path: &Path) -> Result<Vec<FrameRecord>, Eva
         .lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty());
-    match lines.next() {
-        Some((_, h)) if h.trim() == FRAMES_CSV_HEADER => {}
+    let v1 = match lines.next() {
+        Some((_, h)) if h.trim() == FRAMES_CSV_HEADER => false,
+        Some((_, h)) if h.trim() == FRAMES_CSV_HEADER_V1 => true,
         Some((i, h)) => {
             return Err(EvalError::parse(
                 path,
@@ -153,11 +192,11 @@ pub fn parse_frames_csv(text: &str, path: &Path) -> Result<Vec<FrameRecord>, Eva
                 format!("empty file; expected the header {FRAMES_CSV_HEADER:?}"),
             ));
         }
-    }
+    };
     let mut rows = Vec::new();
     let mut seen = std::collections::HashMap::new();
     for (i, line) in lines {
-        let row = parse_row(line.trim()).map_err(|m| EvalError::parse(path, i + 1, m))?;
+        let row = parse_row(line.trim(), v1).map_err(|m| EvalError::parse(path, i + 1, m))?;
         if let Some(first) = seen.insert(row.frame, i + 1) {
             return Err(EvalError::parse(
                 path,
@@ -198,15 +237,23 @@ pub fn format_frames_csv(rows: &[FrameRecord]) -> Result<String, String> {
     s.push_str(FRAMES_CSV_HEADER);
     s.push('\n');
     for (i, r) in rows.iter().enumerate() {
-        if r.reason.contains([',', '"', '\n', '\r']) {
-            return Err(format!(
-                "row {i} (frame {}): reason {:?} holds a comma, quote or line break; expected a keyword",
-                r.frame, r.reason
-            ));
+        for (name, word) in [("reason", &r.reason), ("source", &r.source)] {
+            if word.contains([',', '"', '\n', '\r']) {
+                return Err(format!(
+                    "row {i} (frame {}): {name} {word:?} holds a comma, quote or line break; expected a keyword",
+                    r.frame
+                ));
+            }
         }
-        let finite = [r.zone_score, r.reprojection_rms_px, Some(r.time_ms)]
-            .iter()
-            .all(|v| v.is_none_or(f64::is_finite));
+        let finite = [
+            r.zone_score,
+            r.reprojection_rms_px,
+            r.position_std_mm,
+            r.orientation_std_deg,
+            Some(r.time_ms),
+        ]
+        .iter()
+        .all(|v| v.is_none_or(f64::is_finite));
         if !finite {
             return Err(format!(
                 "row {i} (frame {}): a number is not finite",
@@ -217,14 +264,17 @@ pub fn format_frames_csv(rows: &[FrameRecord]) -> Result<String, String> {
         let inliers = r.inliers.map(|n| n.to_string()).unwrap_or_default();
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{}",
             r.frame,
             zone,
             fmt_opt_f64(r.zone_score),
             r.status.as_str(),
             r.reason,
+            r.source,
             inliers,
             fmt_opt_f64(r.reprojection_rms_px),
+            fmt_opt_f64(r.position_std_mm),
+            fmt_opt_f64(r.orientation_std_deg),
             r.time_ms
         );
     }
@@ -254,8 +304,11 @@ mod tests {
                 zone_score: Some(0.873_1),
                 status: Status::Refined,
                 reason: String::new(),
+                source: "refined".into(),
                 inliers: Some(143),
                 reprojection_rms_px: Some(0.1 + 0.2),
+                position_std_mm: Some(0.25),
+                orientation_std_deg: Some(0.125),
                 time_ms: 41.25,
             },
             FrameRecord {
@@ -264,8 +317,11 @@ mod tests {
                 zone_score: None,
                 status: Status::Rejected,
                 reason: "jump_too_large".into(),
+                source: "none".into(),
                 inliers: None,
                 reprojection_rms_px: None,
+                position_std_mm: None,
+                orientation_std_deg: None,
                 time_ms: 3.0,
             },
         ]
@@ -276,7 +332,7 @@ mod tests {
         let text = format_frames_csv(&rows()).unwrap();
         assert!(text.starts_with(FRAMES_CSV_HEADER));
         assert!(
-            text.contains("\n1,-1,,rejected,jump_too_large,,,3\n"),
+            text.contains("\n1,-1,,rejected,jump_too_large,none,,,,,3\n"),
             "{text}"
         );
         let back = parse_frames_csv(&text, Path::new("f.csv")).unwrap();
@@ -286,11 +342,14 @@ mod tests {
     #[test]
     fn errors_name_file_and_line() {
         let p = Path::new("run/frames.csv");
-        let text =
-            format!("{FRAMES_CSV_HEADER}\n0,1,0.5,refined,,10,0.5,3\n1,2,0.5,refined,10,0.5,3\n");
+        let text = format!(
+            "{FRAMES_CSV_HEADER}\n0,1,0.5,refined,,refined,10,0.5,0.1,0.1,3\n1,2,0.5,refined,refined,10,0.5,0.1,0.1,3\n"
+        );
         let e = parse_frames_csv(&text, p).unwrap_err().to_string();
         assert!(
-            e.starts_with("run/frames.csv:3:") && e.contains("expected 8") && e.contains("found 7"),
+            e.starts_with("run/frames.csv:3:")
+                && e.contains("expected 11")
+                && e.contains("found 10"),
             "{e}"
         );
         let e = parse_frames_csv("frame,zone\n", p).unwrap_err().to_string();
@@ -298,12 +357,28 @@ mod tests {
             e.starts_with("run/frames.csv:1:") && e.contains("header"),
             "{e}"
         );
-        let text = format!("{FRAMES_CSV_HEADER}\n0,1,0.5,lost,,10,0.5,3\n");
+        let text = format!("{FRAMES_CSV_HEADER}\n0,1,0.5,lost,,,10,0.5,,,3\n");
         let e = parse_frames_csv(&text, p).unwrap_err().to_string();
         assert!(e.contains(":2:") && e.contains("\"lost\""), "{e}");
-        let text = format!("{FRAMES_CSV_HEADER}\n0,1,,refined,,,,3\n0,1,,refined,,,,3\n");
+        let text = format!("{FRAMES_CSV_HEADER}\n0,1,,refined,,,,,,,3\n0,1,,refined,,,,,,,3\n");
         let e = parse_frames_csv(&text, p).unwrap_err().to_string();
         assert!(e.contains(":3:") && e.contains("line 2"), "{e}");
+    }
+
+    #[test]
+    fn the_eight_column_layout_is_still_read() {
+        let text = format!(
+            "{FRAMES_CSV_HEADER_V1}\n0,3,0.5,refined,,40,0.7,12.5\n1,-1,,rejected,unreadable_image,,,0\n"
+        );
+        let rows = parse_frames_csv(&text, Path::new("old/frames.csv")).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(
+            (rows[0].zone, rows[0].inliers, rows[0].time_ms),
+            (Some(3), Some(40), 12.5)
+        );
+        assert_eq!(rows[0].reprojection_rms_px, Some(0.7));
+        assert!(rows[0].source.is_empty() && rows[0].position_std_mm.is_none());
+        assert_eq!(rows[1].reason, "unreadable_image");
     }
 
     #[test]

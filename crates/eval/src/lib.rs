@@ -44,8 +44,8 @@ pub use experiment_plots::{
     plot_method_bars,
 };
 pub use frames_csv::{
-    FRAMES_CSV_HEADER, FrameRecord, format_frames_csv, parse_frames_csv, read_frames_csv,
-    write_frames_csv,
+    BOUND95_PER_STD, FRAMES_CSV_HEADER, FRAMES_CSV_HEADER_V1, FrameRecord, format_frames_csv,
+    parse_frames_csv, read_frames_csv, write_frames_csv,
 };
 pub use html::{Block, HtmlReport};
 pub use metrics::{

@@ -77,6 +77,9 @@ fn synthetic_run() -> Run {
             },
             inliers: Some(50),
             reprojection_rms_px: Some(0.7),
+            source: "refined".into(),
+            position_std_mm: None,
+            orientation_std_deg: None,
             time_ms: 30.0,
         });
     }

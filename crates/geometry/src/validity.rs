@@ -125,6 +125,22 @@ pub enum Reason {
         /// The decoder's or the file system's message.
         detail: String,
     },
+    /// Live mode: a registration with few inliers that lies far from the motion model's
+    /// prediction (a scope does not jump between frames); the pose reported is the prediction.
+    InconsistentMotion {
+        /// Distance of the registered camera centre from the predicted one, mm.
+        position_mm: f64,
+        /// Rotation angle between the registered and the predicted orientation, degrees.
+        orientation_deg: f64,
+        /// Inliers of the registration.
+        inliers: usize,
+    },
+    /// Live mode: a registration with few inliers and no recent refined frame to check it
+    /// against; the next frame's registration confirms it when the two agree.
+    Unconfirmed {
+        /// Inliers of the registration.
+        inliers: usize,
+    },
 }
 
 impl Reason {
@@ -138,6 +154,8 @@ impl Reason {
             Reason::JumpTooLarge { .. } => "jump_too_large",
             Reason::DegenerateGeometry { .. } => "degenerate_geometry",
             Reason::UnreadableImage { .. } => "unreadable_image",
+            Reason::InconsistentMotion { .. } => "inconsistent_with_motion",
+            Reason::Unconfirmed { .. } => "unconfirmed",
         }
     }
 }
@@ -165,6 +183,18 @@ impl std::fmt::Display for Reason {
             Reason::UnreadableImage { detail } => {
                 write!(f, "unreadable image ({})", detail.replace(',', ";"))
             }
+            Reason::InconsistentMotion {
+                position_mm,
+                orientation_deg,
+                inliers,
+            } => write!(
+                f,
+                "registration {position_mm:.1} mm / {orientation_deg:.1} deg from the motion model's prediction with only {inliers} inliers"
+            ),
+            Reason::Unconfirmed { inliers } => write!(
+                f,
+                "registration with only {inliers} inliers and no recent motion to check it against"
+            ),
         }
     }
 }

@@ -8,7 +8,7 @@ use endoloc_data::{Dataset, Sequence, StampedPose};
 use endoloc_eval::{FrameRecord, write_frames_csv};
 use endoloc_geometry::Status;
 use endoloc_localize::map_io::load_map;
-use endoloc_localize::{FrameResult, Localizer, LocalizerConfig};
+use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, MotionConfig};
 use endoloc_net::ZoneClassifier;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -78,9 +78,14 @@ pub struct LocalizeJob {
     pub track_frames: usize,
     /// Live: frames after a refined one during which the zones around it are tried (0: off).
     pub recover_frames: usize,
-    /// Live: an `init_only` frame reports the last refined pose when at most this many frames
-    /// old (0: always the zone median).
+    /// Live: the motion model predicts for at most this many frames after the last refined
+    /// one; an `init_only` frame reports the prediction (0: always the zone median, no gate).
     pub hold_frames: usize,
+    /// Live: a registration with at least this many inliers is trusted without the motion
+    /// model's agreement.
+    pub trusted_inliers: usize,
+    /// Live: base radius of the motion gate around the predicted camera centre, mm.
+    pub gate_mm: f64,
     /// Map points also come from this many zones on each side of the classified one.
     pub neighbours: usize,
     /// SURF threshold on the test frames (`None`: twice the map's).
@@ -120,6 +125,8 @@ impl Default for LocalizeJob {
             track_frames: cfg.track_frames,
             recover_frames: cfg.recover_frames,
             hold_frames: cfg.hold_frames,
+            trusted_inliers: cfg.motion.trusted_inliers,
+            gate_mm: cfg.motion.gate_mm,
             neighbours: cfg.neighbour_zones,
             threshold: cfg.surf.as_ref().map(|s| s.threshold),
             retry_threshold: cfg.retry_threshold,
@@ -180,6 +187,11 @@ impl LocalizeJob {
             track_frames: self.track_frames,
             recover_frames: self.recover_frames,
             hold_frames: self.hold_frames,
+            motion: MotionConfig {
+                trusted_inliers: self.trusted_inliers,
+                gate_mm: self.gate_mm,
+                ..base.motion
+            },
             ..base
         };
         let validity = &mut cfg.localize.validity;
@@ -511,11 +523,17 @@ pub fn frame_records(results: &[FrameResult]) -> Vec<FrameRecord> {
                 .reason
                 .as_ref()
                 .map_or(String::new(), |x| x.code().to_string()),
+            source: r.source.as_str().to_string(),
             inliers: r.has_zone().then_some(r.inliers),
             reprojection_rms_px: r
                 .reprojection_rms_px
                 .is_finite()
                 .then_some(r.reprojection_rms_px),
+            position_std_mm: r.position_std_mm.is_finite().then_some(r.position_std_mm),
+            orientation_std_deg: r
+                .orientation_std_deg
+                .is_finite()
+                .then_some(r.orientation_std_deg),
             time_ms: r.times.total_ms(),
         })
         .collect()

@@ -626,6 +626,9 @@ mod tests {
             reason: String::new(),
             inliers: None,
             reprojection_rms_px: None,
+            source: "refined".into(),
+            position_std_mm: None,
+            orientation_std_deg: None,
             time_ms: 1.0,
         }
     }

@@ -13,15 +13,20 @@
 #![warn(missing_docs)]
 
 pub mod export;
+pub mod guided;
 pub mod map;
 pub mod map_io;
+pub mod motion;
 pub mod pipeline;
 
 #[cfg(test)]
 mod config_tests;
 
 pub use map::{DEFAULT_MAP_THRESHOLD, Map, MapConfig, MapPoint, MapSummary, ZoneMap, build_map};
-pub use pipeline::{FrameResult, LiveState, Localizer, LocalizerConfig, RetryFeatures, StageTimes};
+pub use motion::{Gate, MotionConfig, Prediction, Track};
+pub use pipeline::{
+    FrameResult, LiveState, Localizer, LocalizerConfig, PoseSource, RetryFeatures, StageTimes,
+};
 
 /// Errors of the localizer.
 #[derive(Debug, thiserror::Error)]

@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::LocalizeError;
 use crate::map::{Map, MapPoint};
+use crate::motion::{Gate, MotionConfig, Prediction, Track};
 
 /// Settings of the localizer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -56,16 +57,25 @@ pub struct LocalizerConfig {
     /// zones around the last refined pose's zone (one behind, two ahead) for this many frames
     /// after it — the scope cannot have gone far. 0 = off.
     pub recover_frames: usize,
-    /// Live mode only: an `init_only` frame reports the last refined pose instead of its
-    /// zone's median pose when that pose is at most this many frames old (the scope moves
-    /// little in a second or two; a zone median can be a zone away). The status stays
-    /// `init_only`. 0 = always the zone median, as in the paper.
+    /// Live mode only: the motion model predicts a pose for at most this many frames after
+    /// the last refined one; an `init_only` frame reports that prediction (source
+    /// `predicted`) instead of its zone's median pose (a zone median can be a zone away), and
+    /// registrations are gated against it. 0 = no prediction: the zone median, as in the
+    /// paper.
     pub hold_frames: usize,
+    /// Live mode only: the motion model and its gate ([`MotionConfig`]).
+    pub motion: MotionConfig,
     /// A frame that registers nowhere with features at the test threshold is described again
     /// at this lower SURF threshold and tried once more (beyond the paper; its time counts in
     /// the frame's SURF time). `None` (default): the map's threshold. `Some(0.0)`, or a value
     /// not below the test threshold, = off.
     pub retry_threshold: Option<f32>,
+    /// Calibration of the reported uncertainty: the standard deviations in `frames.csv` are
+    /// this many times those of the Gauss-Newton covariance (which sees only the test
+    /// keypoints' noise, not the map points' own error), chosen so that
+    /// 1.96 × `position_std_mm` bounds about 95 % of refined frames' position errors on
+    /// simulated passes.
+    pub uncertainty_scale: f64,
 }
 
 impl Default for LocalizerConfig {
@@ -80,7 +90,9 @@ impl Default for LocalizerConfig {
             track_frames: 5,
             recover_frames: 300,
             hold_frames: 60,
+            motion: MotionConfig::default(),
             retry_threshold: None,
+            uncertainty_scale: 3.0,
         }
     }
 }
@@ -121,6 +133,38 @@ impl StageTimes {
     }
 }
 
+/// Where a frame's reported pose comes from (the `source` column of `frames.csv`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PoseSource {
+    /// Registered to the map and refined: the status is `refined`.
+    Refined,
+    /// Live mode: the motion model's prediction from the recent refined frames.
+    Predicted,
+    /// The classified zone's median training pose (the paper's initial pose).
+    ZoneMedian,
+    /// No pose (`rejected`).
+    None,
+}
+
+impl PoseSource {
+    /// The keyword written to `frames.csv`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            PoseSource::Refined => "refined",
+            PoseSource::Predicted => "predicted",
+            PoseSource::ZoneMedian => "zone_median",
+            PoseSource::None => "none",
+        }
+    }
+}
+
+impl std::fmt::Display for PoseSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// The outcome for one frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrameResult {
@@ -132,8 +176,18 @@ pub struct FrameResult {
     pub status: Status,
     /// Why, when not `refined`.
     pub reason: Option<Reason>,
-    /// Pose `T_wc` (mm): refined, or the zone median for `init_only`; `None` when rejected.
+    /// Pose `T_wc` (mm): refined, or for `init_only` the zone median (live: the motion
+    /// model's prediction while it is fresh); `None` when rejected.
     pub t_wc: Option<Pose>,
+    /// Where [`FrameResult::t_wc`] comes from.
+    pub source: PoseSource,
+    /// Calibrated standard deviation of the camera centre along its least certain direction,
+    /// mm ([`LocalizerConfig::uncertainty_scale`] × the Gauss-Newton covariance's); NaN
+    /// unless refined.
+    pub position_std_mm: f64,
+    /// Calibrated standard deviation of the orientation about its least certain axis,
+    /// degrees; NaN unless refined.
+    pub orientation_std_deg: f64,
     /// Correspondences found by matching.
     pub correspondences: usize,
     /// Inliers of the final estimate.
@@ -163,6 +217,9 @@ impl FrameResult {
                 detail: detail.into(),
             }),
             t_wc: None,
+            source: PoseSource::None,
+            position_std_mm: f64::NAN,
+            orientation_std_deg: f64::NAN,
             correspondences: 0,
             inliers: 0,
             inlier_px: Vec::new(),
@@ -186,6 +243,8 @@ pub struct Localizer {
     /// SURF at [`LocalizerConfig::retry_threshold`], when that is on.
     retry_surf: Option<Surf>,
     matcher: Matcher,
+    /// The live motion gate for this model's training pass.
+    gate: Gate,
 }
 
 /// A frame's SURF features at [`LocalizerConfig::retry_threshold`], extracted beforehand.
@@ -233,6 +292,13 @@ impl Localizer {
             )));
         }
         classifier.check_compatible(&map.camera)?;
+        cfg.motion.validate().map_err(LocalizeError::Config)?;
+        if !(cfg.uncertainty_scale.is_finite() && cfg.uncertainty_scale > 0.0) {
+            return Err(LocalizeError::Config(format!(
+                "uncertainty_scale = {}; expected a finite value > 0",
+                cfg.uncertainty_scale
+            )));
+        }
         let test_surf = cfg.test_surf(&map.config.surf);
         let retry = cfg.retry_threshold_for(&map.config.surf);
         let surf = test_surf.clone().init()?;
@@ -242,7 +308,9 @@ impl Localizer {
             None
         };
         let matcher = Matcher::new(cfg.matcher.clone());
+        let gate = Gate::new(&cfg.motion, classifier.train_poses());
         Ok(Localizer {
+            gate,
             classifier,
             map,
             cfg,
@@ -320,16 +388,19 @@ impl Localizer {
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
         let prior = self.classifier.zones().zones[zone].median_pose;
-        self.register_from(features, zone, &prior, zone_score, times)
+        self.register_from(features, zone, &prior, None, zone_score, times)
     }
 
     /// Matches `features` to the map points of `zone` (and its neighbours) and refines from
-    /// `prior` (`T_wc`, mm); the validity check measures the jump from `prior`.
+    /// `prior` (`T_wc`, mm); the validity check measures the jump from `prior`. With
+    /// `guide_px`, matching is guided by `prior` ([`crate::guided`]: only map points
+    /// projected within that many pixels of a feature compete for it); brute force otherwise.
     fn register_from(
         &self,
         features: &[endoloc_features::Feature],
         zone: usize,
         prior: &Pose,
+        guide_px: Option<f64>,
         zone_score: f32,
         mut times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
@@ -343,6 +414,16 @@ impl Localizer {
             .collect();
         let matches = if features.is_empty() || candidates.is_empty() {
             Vec::new()
+        } else if let Some(radius) = guide_px {
+            crate::guided::match_guided(
+                features,
+                &candidates,
+                &self.map.camera,
+                &prior,
+                radius,
+                self.cfg.localize.refine.min_depth_mm,
+                &self.cfg.matcher,
+            )
         } else {
             self.matcher.match_descriptors(features, &candidates)?
         };
@@ -381,12 +462,28 @@ impl Localizer {
                 .map(|(p, _)| [p.x as f32, p.y as f32])
                 .collect()
         });
+        let status = result.verdict.status;
+        let source = match status {
+            Status::Refined => PoseSource::Refined,
+            Status::InitOnly => PoseSource::ZoneMedian,
+            Status::Rejected => PoseSource::None,
+        };
+        let (position_std_mm, orientation_std_deg) = match (&result.estimate, status) {
+            (Some(e), Status::Refined) => (
+                self.cfg.uncertainty_scale * e.position_sigma_mm(),
+                self.cfg.uncertainty_scale * e.rotation_sigma_deg(),
+            ),
+            _ => (f64::NAN, f64::NAN),
+        };
         Ok(FrameResult {
             zone,
             zone_score,
-            status: result.verdict.status,
+            status,
             reason: result.verdict.reason,
             t_wc: result.t_wc,
+            source,
+            position_std_mm,
+            orientation_std_deg,
             correspondences: matches.len(),
             inliers,
             inlier_px,
@@ -579,15 +676,18 @@ impl Localizer {
 }
 
 /// State of a live stream ([`Localizer::localize_live`]): the causal zone filter, the track
-/// filter over training frames, and the last refined pose.
+/// filter over training frames, and the motion model's recent refined poses.
 #[derive(Debug, Clone)]
 pub struct LiveState {
     filter: TemporalFilter,
     /// The track filter ([`endoloc_net::track`]); its zone is used for frames whose prediction
     /// carries a descriptor, the zone filter's otherwise.
     track: Option<TrackFilter>,
-    /// Last refined pose (`T_wc`, mm) and its frame number.
-    last: Option<(Pose, usize)>,
+    /// Recent refined poses: the motion model's evidence.
+    motion: Track,
+    /// The last registration the motion gate refused (frame, `T_wc`): a next registration
+    /// that agrees with it confirms both (the scope really is there).
+    pending: Option<(usize, Pose)>,
     /// Frames seen so far.
     frame: usize,
 }
@@ -604,7 +704,8 @@ impl LiveState {
         if let Some(t) = &mut self.track {
             t.reset();
         }
-        self.last = None;
+        self.motion.clear();
+        self.pending = None;
         self.frame = 0;
     }
 }
@@ -617,16 +718,18 @@ impl Localizer {
             // Parameters were validated when the model was loaded; a model without training
             // frames has no track and keeps the zone HMM.
             track: self.classifier.track_filter().ok(),
-            last: None,
+            motion: Track::default(),
+            pending: None,
             frame: 0,
         }
     }
 
     /// Localizes the next frame of a live stream (frames in order, one at a time): classify,
-    /// fold the prediction into the causal filters (track filter, zone HMM), then — when a
-    /// recent frame was `refined` and [`LocalizerConfig::track_frames`] > 0 — register from
-    /// that pose first; otherwise (or if that fails) from the filtered zone and the candidate
-    /// zones.
+    /// fold the prediction into the causal filters (track filter, zone HMM), predict the pose
+    /// from the recent refined frames ([`crate::motion`]), register from that prediction
+    /// first when it is recent ([`LocalizerConfig::track_frames`]), otherwise (or if that
+    /// fails) from the filtered zone and the candidate zones; then gate the registration
+    /// against the prediction.
     ///
     /// # Errors
     /// As [`Localizer::localize`].
@@ -665,8 +768,9 @@ impl Localizer {
         self.live_step(state, features, retry.into(), pred, times)
     }
 
-    /// One live frame: fold `pred` into the filter, register (with the retry), then the hold
-    /// rule, and remember a refined pose.
+    /// One live frame: fold `pred` into the filter, predict, register (with the retry), gate
+    /// the registration against the prediction, report the prediction for a frame without a
+    /// trusted registration, and remember a refined pose.
     fn live_step(
         &self,
         state: &mut LiveState,
@@ -684,49 +788,107 @@ impl Localizer {
             let distances = self.classifier.frame_distances(&pred.descriptor)?;
             zone = track.update(&distances)?.zone;
         }
+        let motion = &self.cfg.motion;
+        let prediction = state.motion.predict(frame, self.cfg.hold_frames, motion);
         let seen: &LiveState = state;
         let mut r = self.with_retry(features, retry, times, |f, times| {
-            self.live_register(seen, frame, zone, f, pred, times)
+            self.live_register(seen, frame, zone, prediction.as_ref(), f, pred, times)
         })?;
-        if r.status == Status::InitOnly
-            && let Some((pose, at)) = state.last
-            && self.cfg.hold_frames > 0
-            && frame - at <= self.cfg.hold_frames
+        if r.status == Status::Refined
+            && let Some(t_wc) = r.t_wc
         {
-            r.t_wc = Some(pose);
+            self.gate(state, frame, prediction.as_ref(), t_wc, &mut r);
+        }
+        if r.status == Status::InitOnly
+            && let Some(p) = &prediction
+        {
+            r.t_wc = Some(p.t_wc);
+            r.source = PoseSource::Predicted;
         }
         self.remember(state, &r, frame);
         Ok(r)
     }
 
-    /// Registration of live frame `frame` (filtered zone `zone`): from the last refined pose
-    /// when it is recent, else the candidate zones plus the zones around the last pose.
+    /// The motion gate: a refined registration `t_wc` of `frame` stays `refined` when it has
+    /// [`MotionConfig::trusted_inliers`], agrees with the prediction, or agrees with the last
+    /// refused registration (two consecutive frames confirm each other); otherwise it becomes
+    /// `init_only` and is remembered as pending.
+    fn gate(
+        &self,
+        state: &mut LiveState,
+        frame: usize,
+        prediction: Option<&Prediction>,
+        t_wc: Pose,
+        r: &mut FrameResult,
+    ) {
+        let motion = &self.cfg.motion;
+        let versus_prediction = prediction.map(|p| p.compare(&t_wc, &self.gate));
+        let confirmed =
+            state
+                .pending
+                .filter(|(at, _)| frame - at <= 2)
+                .is_some_and(|(at, pose)| {
+                    let p = Prediction {
+                        t_wc: pose,
+                        age: frame - at,
+                    };
+                    p.compare(&t_wc, &self.gate).agrees
+                });
+        let trusted = r.inliers >= motion.trusted_inliers;
+        if trusted || confirmed || versus_prediction.is_some_and(|d| d.agrees) {
+            state.pending = None;
+            return;
+        }
+        state.pending = Some((frame, t_wc));
+        r.status = Status::InitOnly;
+        r.reason = Some(match versus_prediction {
+            Some(d) => Reason::InconsistentMotion {
+                position_mm: d.position_mm,
+                orientation_deg: d.orientation_deg,
+                inliers: r.inliers,
+            },
+            None => Reason::Unconfirmed { inliers: r.inliers },
+        });
+        r.t_wc = Some(self.classifier.zones().zones[r.zone].median_pose);
+        r.source = PoseSource::ZoneMedian;
+        r.position_std_mm = f64::NAN;
+        r.orientation_std_deg = f64::NAN;
+    }
+
+    /// Registration of live frame `frame` (filtered zone `zone`): from the motion model's
+    /// prediction when it is recent, else the candidate zones plus the zones around the last
+    /// refined pose.
+    #[allow(clippy::too_many_arguments)]
     fn live_register(
         &self,
         state: &LiveState,
         frame: usize,
         zone: usize,
+        prediction: Option<&Prediction>,
         features: &[Feature],
         pred: &ZonePrediction,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
-        let recent = state
-            .last
-            .filter(|(_, at)| self.cfg.track_frames > 0 && frame - at <= self.cfg.track_frames);
+        let recent =
+            prediction.filter(|p| self.cfg.track_frames > 0 && p.age <= self.cfg.track_frames);
         let mut spent = StageTimes::default();
-        if let Some((pose, _)) = recent
-            && let Some(z) = self.classifier.truth_zone(&pose)
+        if let Some(p) = recent
+            && let Some(z) = self.classifier.truth_zone(&p.t_wc)
         {
             let score = pred.zone_scores.get(z).copied().unwrap_or(f32::NAN);
-            let r = self.register_from(features, z, &pose, score, times)?;
-            if r.status == Status::Refined {
+            let m = &self.cfg.motion;
+            let radius = m.search_px + m.search_px_per_frame * p.age as f64;
+            let r = self.register_from(features, z, &p.t_wc, Some(radius), score, times)?;
+            if r.status == Status::Refined
+                && r.t_wc.is_some_and(|t| p.compare(&t, &self.gate).agrees)
+            {
                 return Ok(r);
             }
             spent.matching_ms += r.times.matching_ms;
             spent.refine_ms += r.times.refine_ms;
         }
-        let extra: Vec<usize> = match state.last {
-            Some((pose, at))
+        let extra: Vec<usize> = match state.motion.last() {
+            Some((at, pose))
                 if self.cfg.recover_frames > 0 && frame - at <= self.cfg.recover_frames =>
             {
                 match self.classifier.truth_zone(&pose) {
@@ -747,7 +909,7 @@ impl Localizer {
             return;
         }
         if let Some(pose) = r.t_wc {
-            state.last = Some((pose, frame));
+            state.motion.push(frame, pose, &self.cfg.motion);
             if let Some(z) = self.classifier.truth_zone(&pose) {
                 state.filter.anchor(z);
             }

@@ -5,15 +5,21 @@
 //! - in live mode, tracking from the last refined pose keeps frames refined even when the
 //!   classifier points to a far-away zone, and without tracking they are not;
 //! - a textureless frame is `init_only` with the reason, not an error;
+//! - live, through a fast stretch without texture the motion model's prediction is closer to
+//!   the truth than the last refined pose held still;
+//! - live, a registration far from the prediction with few inliers (a frame from another
+//!   zone) is not `refined`;
 //! - a frame with too few features at the test threshold registers with the retry features;
 //! - geometric verification (`endoloc classify --verify`): frames the classifier puts one
 //!   zone off get their true zone back from the zone of their registered pose.
 
 use burn::module::Module;
 use endoloc_data::Dataset;
+use endoloc_geometry::Reason;
 use endoloc_geometry::{Pose, Status};
 use endoloc_localize::{
-    FrameResult, Localizer, LocalizerConfig, MapConfig, RetryFeatures, StageTimes, build_map,
+    FrameResult, Localizer, LocalizerConfig, MapConfig, MotionConfig, PoseSource, RetryFeatures,
+    StageTimes, build_map,
 };
 use endoloc_net::database::{DescriptorDatabase, ScoreRule};
 use endoloc_net::model::{FORMAT_VERSION, ModelConfig};
@@ -225,12 +231,15 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
                     StageTimes::default(),
                 )
                 .unwrap();
-            // Hold: an init_only frame soon after a refined one reports that refined pose.
+            // An init_only frame soon after a refined one reports the motion model's
+            // prediction from it.
             if r.status == Status::InitOnly
                 && let Some((pose, at)) = last_refined
                 && i - at <= 60
             {
-                assert_eq!(r.t_wc, Some(pose), "frame {i} holds frame {at}'s pose");
+                assert_eq!(r.source, PoseSource::Predicted, "frame {i}");
+                let moved = endoloc_geometry::position_error_mm(&r.t_wc.unwrap(), &pose);
+                assert!(moved < 10.0 * (i - at) as f64, "frame {i}: {moved} mm");
             }
             if r.status == Status::Refined {
                 last_refined = r.t_wc.map(|p| (p, i));
@@ -336,6 +345,11 @@ fn a_frame_without_enough_features_registers_with_the_retry_features() {
     let test = f.ds.sequence("test").unwrap();
     let cfg = LocalizerConfig {
         retry_threshold: Some(25.0),
+        // Each live check starts a new stream: trust its first registration.
+        motion: MotionConfig {
+            trusted_inliers: 0,
+            ..MotionConfig::default()
+        },
         ..LocalizerConfig::default()
     };
     let loc = localizer(f, cfg);
@@ -390,4 +404,183 @@ fn a_frame_without_enough_features_registers_with_the_retry_features() {
         checked >= 5,
         "only {checked} frames registered at threshold 25"
     );
+}
+
+/// Live over every `step`-th test frame (a fast pass), with the frames in `blind` stripped of
+/// their features (a textureless stretch); the position errors of the blind frames.
+fn blind_stretch_errors(f: &Fixture, motion: MotionConfig, step: usize) -> Vec<f64> {
+    let test = f.ds.sequence("test").unwrap();
+    let loc = localizer(
+        f,
+        LocalizerConfig {
+            motion,
+            ..LocalizerConfig::default()
+        },
+    );
+    let frames: Vec<usize> = (0..test.len()).step_by(step).take(30).collect();
+    let blind = 15..22;
+    let mut state = loc.live_state();
+    let mut errors = Vec::new();
+    for (k, &i) in frames.iter().enumerate() {
+        let zone = loc.classifier().truth_zone(&test.poses[i].pose).unwrap();
+        let features = if blind.contains(&k) {
+            Vec::new()
+        } else {
+            loc.surf()
+                .detect_and_describe(&test.load_gray(i).unwrap())
+                .unwrap()
+        };
+        let r = loc
+            .localize_live_features(
+                &mut state,
+                &features,
+                None,
+                &predict(zone),
+                StageTimes::default(),
+            )
+            .unwrap();
+        if blind.contains(&k) {
+            assert_eq!(r.status, Status::InitOnly, "blind frame {k}");
+            assert_eq!(r.source, PoseSource::Predicted, "blind frame {k}");
+            errors.push(position_error_mm(&r, &test.poses[i].pose));
+        }
+    }
+    errors
+}
+
+#[test]
+fn live_prediction_beats_holding_the_last_pose_through_a_fast_textureless_stretch() {
+    let f = fixture();
+    let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
+    // The fixture's pass moves ~4 mm per frame (~120 mm/s at 30 fps): a fast withdrawal.
+    let predicted = blind_stretch_errors(f, MotionConfig::default(), 1);
+    let held = blind_stretch_errors(
+        f,
+        MotionConfig {
+            damping: 0.0,
+            ..MotionConfig::default()
+        },
+        1,
+    );
+    let (p, h) = (mean(&predicted), mean(&held));
+    assert!(
+        p < 0.7 * h,
+        "prediction {p:.2} mm vs the held pose {h:.2} mm on the blind frames ({predicted:?} vs {held:?})"
+    );
+}
+
+#[test]
+fn a_registration_far_from_the_prediction_with_few_inliers_is_not_refined() {
+    let f = fixture();
+    let test = f.ds.sequence("test").unwrap();
+    let run = |motion: MotionConfig, intruder: &[endoloc_features::Feature], zone: usize| {
+        let loc = localizer(
+            f,
+            LocalizerConfig {
+                motion,
+                ..LocalizerConfig::default()
+            },
+        );
+        let mut state = loc.live_state();
+        for i in 0..10 {
+            let z = loc.classifier().truth_zone(&test.poses[i].pose).unwrap();
+            let features = loc
+                .surf()
+                .detect_and_describe(&test.load_gray(i).unwrap())
+                .unwrap();
+            let r = loc
+                .localize_live_features(
+                    &mut state,
+                    &features,
+                    None,
+                    &predict(z),
+                    StageTimes::default(),
+                )
+                .unwrap();
+            // The first frame has no motion to check it against: unless it has the trusted
+            // inlier count, the second frame's agreement confirms the track.
+            if i == 0 && r.status != Status::Refined {
+                assert!(
+                    matches!(r.reason, Some(Reason::Unconfirmed { .. })),
+                    "{r:?}"
+                );
+            } else {
+                assert_eq!(r.status, Status::Refined, "tracking frame {i}");
+            }
+        }
+        // Frame 10 shows a far part of the colon, and the classifier agrees with it.
+        loc.localize_live_features(
+            &mut state,
+            intruder,
+            None,
+            &predict(zone),
+            StageTimes::default(),
+        )
+        .unwrap()
+    };
+    let trusted = MotionConfig::default().trusted_inliers;
+    let mut checked = 0;
+    for j in (150..test.len()).step_by(10) {
+        let zone = fixture_zone(f, &test.poses[j].pose);
+        let loc = localizer(f, LocalizerConfig::default());
+        let all = loc
+            .surf()
+            .detect_and_describe(&test.load_gray(j).unwrap())
+            .unwrap();
+        // Few of its features: a registration with fewer inliers than the trusted count.
+        for n in [20, 30, 40, 60] {
+            let few = &all[..n.min(all.len())];
+            let ungated = run(
+                MotionConfig {
+                    trusted_inliers: 0,
+                    ..MotionConfig::default()
+                },
+                few,
+                zone,
+            );
+            if ungated.status != Status::Refined || ungated.inliers >= trusted {
+                continue;
+            }
+            // Without the gate it is `refined`, far from where the scope is; with it, not.
+            let far =
+                endoloc_geometry::position_error_mm(&ungated.t_wc.unwrap(), &test.poses[10].pose);
+            assert!(far > 20.0, "frame {j} registered {far:.1} mm from frame 10");
+            let gated = run(MotionConfig::default(), few, zone);
+            assert_eq!(
+                gated.status,
+                Status::InitOnly,
+                "frame {j} with {n} features"
+            );
+            assert!(
+                matches!(gated.reason, Some(Reason::InconsistentMotion { .. })),
+                "{:?}",
+                gated.reason
+            );
+            assert_eq!(gated.source, PoseSource::Predicted);
+            let err = position_error_mm(&gated, &test.poses[10].pose);
+            assert!(err < 5.0, "the prediction is {err:.1} mm off");
+            checked += 1;
+            break;
+        }
+        if checked >= 2 {
+            break;
+        }
+    }
+    assert!(
+        checked >= 2,
+        "only {checked} far frames registered with few inliers"
+    );
+}
+
+fn fixture_zone(f: &Fixture, pose: &Pose) -> usize {
+    f.zones
+        .zones
+        .iter()
+        .min_by(|a, b| {
+            let da = endoloc_geometry::position_error_mm(&a.median_pose, pose);
+            let db = endoloc_geometry::position_error_mm(&b.median_pose, pose);
+            da.total_cmp(&db)
+        })
+        .map(|z| z.index)
+        .unwrap()
 }

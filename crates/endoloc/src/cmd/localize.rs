@@ -116,10 +116,21 @@ pub struct LocalizeArgs {
     /// also try the zones around it (one behind, two ahead); 0: off.
     #[arg(long, default_value_t = LocalizeJob::default().recover_frames)]
     recover_frames: usize,
-    /// Live mode: an init_only frame reports the last refined pose (instead of its zone's
-    /// median) when that is at most this many frames old; 0: always the zone median.
+    /// Live mode: the motion model (damped constant velocity) predicts the pose for at most
+    /// this many frames after the last refined one; an init_only frame reports that
+    /// prediction instead of its zone's median, and weak registrations must agree with it;
+    /// 0: always the zone median, no gate.
     #[arg(long, default_value_t = LocalizeJob::default().hold_frames)]
     hold_frames: usize,
+    /// Live mode: a registration with at least this many inliers is trusted without the
+    /// motion model's agreement (fewer: it must agree with the prediction, or be confirmed by
+    /// the next frame's registration).
+    #[arg(long, default_value_t = LocalizeJob::default().trusted_inliers)]
+    trusted_inliers: usize,
+    /// Live mode: base radius of the motion gate around the predicted camera centre, mm
+    /// (grows by 1 mm per frame since the last refined one).
+    #[arg(long, default_value_t = LocalizeJob::default().gate_mm)]
+    gate_mm: f64,
     /// Map points also come from this many zones on each side of the classified one.
     #[arg(long, default_value_t = LocalizeJob::default().neighbours)]
     neighbours: usize,
@@ -201,6 +212,8 @@ impl From<LocalizeArgs> for LocalizeJob {
             track_frames: a.track_frames,
             recover_frames: a.recover_frames,
             hold_frames: a.hold_frames,
+            trusted_inliers: a.trusted_inliers,
+            gate_mm: a.gate_mm,
             neighbours: a.neighbours,
             threshold: a.threshold,
             retry_threshold: a.retry_threshold,
