@@ -13,6 +13,7 @@
 use std::sync::OnceLock;
 
 use crate::integral::{IntegralImage, round_i64};
+use crate::mask::Mask;
 
 const GRID: usize = 24;
 const SUB: usize = 9;
@@ -46,8 +47,11 @@ fn weights() -> &'static Weights {
 
 /// Descriptor of the keypoint at `(x, y)` (pixels), scale σ `scale` (pixels), orientation
 /// `angle` (radians, image axes); writes 64 or 128 (`extended`) unit-norm values to `out`.
+/// Samples whose Haar box reaches outside `mask` count as zero, like samples beyond the image.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn describe(
     ii: &IntegralImage,
+    mask: Option<&Mask>,
     x: f32,
     y: f32,
     scale: f32,
@@ -57,6 +61,7 @@ pub(crate) fn describe(
 ) {
     let (sin, cos) = angle.sin_cos();
     let size = 2 * round_i64(scale).max(1);
+    let reach = size as f32 * std::f32::consts::FRAC_1_SQRT_2;
     // Rotated Haar responses on the 24 × 24 sample grid.
     let mut du = [0.0f32; GRID * GRID];
     let mut dv = [0.0f32; GRID * GRID];
@@ -66,6 +71,9 @@ pub(crate) fn describe(
             let u = (mu as f32 - 11.5) * scale;
             let px = x + u * cos - v * sin;
             let py = y + u * sin + v * cos;
+            if mask.is_some_and(|m| !m.contains_disc(px, py, reach)) {
+                continue;
+            }
             if let Some((dx, dy)) = ii.haar(px, py, size) {
                 du[mv * GRID + mu] = dx * cos + dy * sin;
                 dv[mv * GRID + mu] = -dx * sin + dy * cos;
@@ -120,14 +128,14 @@ mod tests {
             .collect();
         let ii = IntegralImage::from_u8(&px, w, h);
         let mut d = Vec::new();
-        describe(&ii, 50.0, 50.0, 2.0, 0.3, false, &mut d);
+        describe(&ii, None, 50.0, 50.0, 2.0, 0.3, false, &mut d);
         assert_eq!(d.len(), 64);
         assert!((d.iter().map(|v| v * v).sum::<f32>() - 1.0).abs() < 1e-4);
-        describe(&ii, 50.0, 50.0, 2.0, 0.3, true, &mut d);
+        describe(&ii, None, 50.0, 50.0, 2.0, 0.3, true, &mut d);
         assert_eq!(d.len(), 128);
         // A flat image has no gradient: an all-zero descriptor, not NaN.
         let flat = IntegralImage::from_u8(&vec![77u8; w * h], w, h);
-        describe(&flat, 50.0, 50.0, 2.0, 0.0, false, &mut d);
+        describe(&flat, None, 50.0, 50.0, 2.0, 0.0, false, &mut d);
         assert!(d.iter().all(|v| *v == 0.0));
     }
 }

@@ -5,6 +5,29 @@ use thiserror::Error;
 /// Everything that can go wrong in `endoloc-features`.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum FeatureError {
+    /// A mask without a single valid pixel.
+    #[error("the {width} × {height} mask has no valid (non-zero) pixel")]
+    EmptyMask {
+        /// Mask width in pixels.
+        width: usize,
+        /// Mask height in pixels.
+        height: usize,
+    },
+    /// The mask and the image differ in size.
+    #[error(
+        "the mask is {mask_width} × {mask_height} pixels but the image is {width} × {height}; \
+         expected a mask of the frames' size"
+    )]
+    MaskSize {
+        /// Mask width.
+        mask_width: usize,
+        /// Mask height.
+        mask_height: usize,
+        /// Image width.
+        width: usize,
+        /// Image height.
+        height: usize,
+    },
     /// The pixel buffer does not hold `width × height` values.
     #[error(
         "pixel buffer holds {actual} values, expected width {width} × height {height} = {expected}"

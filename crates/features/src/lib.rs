@@ -5,6 +5,8 @@
 //!   orientation from Haar responses in a sliding 60° window (or upright U-SURF), 64-d or
 //!   128-d descriptor. Parameters and thresholds map one-to-one onto MATLAB's
 //!   `detectSURFFeatures` (see [`config`]).
+//! - [`Mask`]: the valid area of the frames (black border, circular field stop); a [`Surf`]
+//!   given one with [`Surf::with_mask`] detects and describes only inside it.
 //! - [`Matcher`]: brute-force L2 with Lowe's ratio test, mutual-nearest check and
 //!   Laplacian-sign gating, for image↔image and image↔map-point matching ([`Describe`]).
 //! - [`repeatability`], [`warp`] and [`texture`]: the evaluation behind `REPEATABILITY.md`.
@@ -33,6 +35,8 @@ mod hessian;
 pub mod integral;
 pub mod io;
 mod keypoint;
+pub mod mask;
+pub mod mask_detect;
 pub mod matcher;
 mod orientation;
 pub mod repeatability;
@@ -46,7 +50,11 @@ pub use config::SurfConfig;
 pub use error::FeatureError;
 pub use integral::IntegralImage;
 pub use keypoint::{BLOB_SIGMA_PER_SCALE, Describe, Feature, Keypoint};
+pub use mask::Mask;
+pub use mask_detect::{DetectedMask, MaskDetectConfig, MaskShape, detect_mask};
 pub use matcher::{Match, Matcher, MatcherConfig};
+
+use std::sync::Arc;
 
 use image::GrayImage;
 use rayon::prelude::*;
@@ -55,16 +63,44 @@ use rayon::prelude::*;
 #[derive(Debug, Clone)]
 pub struct Surf {
     config: SurfConfig,
+    /// The valid area of the frames, when they have one.
+    mask: Option<Arc<Mask>>,
 }
 
 impl Surf {
     pub(crate) fn from_validated(config: SurfConfig) -> Self {
-        Self { config }
+        Self { config, mask: None }
     }
 
     /// The configuration this detector was built from.
     pub fn config(&self) -> &SurfConfig {
         &self.config
+    }
+
+    /// This detector restricted to the valid area of `mask` (see [`mask`]): keypoints whose
+    /// box filter reaches outside it are dropped, and orientation and descriptor samples
+    /// outside it count as zero. Images must then have the mask's size. `None`: the whole
+    /// image.
+    pub fn with_mask(mut self, mask: Option<Arc<Mask>>) -> Self {
+        self.mask = mask;
+        self
+    }
+
+    /// The mask, when one is set.
+    pub fn mask(&self) -> Option<&Mask> {
+        self.mask.as_deref()
+    }
+
+    fn check_mask(&self, width: usize, height: usize) -> Result<(), FeatureError> {
+        match &self.mask {
+            Some(m) if (m.width(), m.height()) != (width, height) => Err(FeatureError::MaskSize {
+                mask_width: m.width(),
+                mask_height: m.height(),
+                width,
+                height,
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// Integral image of an 8-bit grey image (0..255).
@@ -74,6 +110,7 @@ impl Surf {
     pub fn integral_from_gray(&self, image: &GrayImage) -> Result<IntegralImage, FeatureError> {
         let (w, h) = (image.width() as usize, image.height() as usize);
         self.check_size(w, h)?;
+        self.check_mask(w, h)?;
         Ok(IntegralImage::from_u8(image.as_raw(), w, h))
     }
 
@@ -98,6 +135,7 @@ impl Surf {
                 max_pixels: self.config.max_pixels,
             })?;
         self.check_size(width, height)?;
+        self.check_mask(width, height)?;
         if pixels.len() != expected {
             return Err(FeatureError::BufferSize {
                 width,
@@ -175,9 +213,13 @@ impl Surf {
         Ok(self.describe_integral(&ii, keypoints))
     }
 
-    /// Fast-Hessian detection plus orientation assignment on a prepared integral image.
+    /// Fast-Hessian detection plus orientation assignment on a prepared integral image (of the
+    /// mask's size when a mask is set).
     pub fn detect_integral(&self, ii: &IntegralImage) -> Vec<Keypoint> {
         let mut kps = hessian::detect(ii, &self.config);
+        if let Some(m) = &self.mask {
+            kps.retain(|kp| m.contains_disc(kp.x, kp.y, mask::DETECTOR_REACH_PER_SCALE * kp.scale));
+        }
         let cap = self.config.max_keypoints;
         if cap > 0 && kps.len() > cap {
             // Strongest first; ties broken by position so the result does not depend on the
@@ -193,8 +235,9 @@ impl Surf {
             kps.truncate(cap);
         }
         if !self.config.upright {
+            let mask = self.mask.as_deref();
             let orient = |kp: &mut Keypoint| {
-                kp.orientation = orientation::orientation(ii, kp.x, kp.y, kp.scale);
+                kp.orientation = orientation::orientation(ii, mask, kp.x, kp.y, kp.scale);
             };
             if self.config.parallel {
                 kps.par_iter_mut().for_each(orient);
@@ -208,9 +251,19 @@ impl Surf {
     /// Descriptors for keypoints on a prepared integral image.
     pub fn describe_integral(&self, ii: &IntegralImage, keypoints: &[Keypoint]) -> Vec<Feature> {
         let extended = self.config.extended;
+        let mask = self.mask.as_deref();
         let one = |kp: &Keypoint| {
             let mut d = Vec::with_capacity(self.config.descriptor_len());
-            descriptor::describe(ii, kp.x, kp.y, kp.scale, kp.orientation, extended, &mut d);
+            descriptor::describe(
+                ii,
+                mask,
+                kp.x,
+                kp.y,
+                kp.scale,
+                kp.orientation,
+                extended,
+                &mut d,
+            );
             Feature {
                 keypoint: *kp,
                 descriptor: d,

@@ -143,10 +143,7 @@ impl Mask {
 /// transform, columns then rows.
 fn distance_to_invalid(width: usize, height: usize, valid: &[bool]) -> Vec<f32> {
     const INF: f64 = 1e20;
-    let mut d: Vec<f64> = valid
-        .iter()
-        .map(|&v| if v { INF } else { 0.0 })
-        .collect();
+    let mut d: Vec<f64> = valid.iter().map(|&v| if v { INF } else { 0.0 }).collect();
     let mut f = vec![0.0; width.max(height)];
     let mut out = vec![0.0; width.max(height)];
     for x in 0..width {
@@ -222,7 +219,9 @@ mod tests {
             for x in 0..w {
                 let want = invalid
                     .iter()
-                    .map(|&(a, b)| ((x as f32 - a as f32).powi(2) + (y as f32 - b as f32).powi(2)).sqrt())
+                    .map(|&(a, b)| {
+                        ((x as f32 - a as f32).powi(2) + (y as f32 - b as f32).powi(2)).sqrt()
+                    })
                     .fold(f32::MAX, f32::min);
                 let got = m.clearance_at(x as i64, y as i64);
                 assert!((got - want).abs() < 1e-4, "({x},{y}): {got} vs {want}");

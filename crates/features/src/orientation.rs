@@ -10,6 +10,7 @@ use std::f32::consts::{PI, TAU};
 use std::sync::OnceLock;
 
 use crate::integral::{IntegralImage, round_i64};
+use crate::mask::Mask;
 
 /// Sample offsets (in units of σ) and their Gaussian weights.
 fn samples() -> &'static [(f32, f32, f32)] {
@@ -30,12 +31,24 @@ fn samples() -> &'static [(f32, f32, f32)] {
 }
 
 /// Orientation (radians in `[0, 2π)`, image axes) of a keypoint at `(x, y)` with scale σ
-/// `scale` pixels; 0 when no response is available (flat region or at the border).
-pub(crate) fn orientation(ii: &IntegralImage, x: f32, y: f32, scale: f32) -> f32 {
+/// `scale` pixels; 0 when no response is available (flat region or at the border). Samples
+/// whose Haar box reaches outside `mask` count as no response.
+pub(crate) fn orientation(
+    ii: &IntegralImage,
+    mask: Option<&Mask>,
+    x: f32,
+    y: f32,
+    scale: f32,
+) -> f32 {
     let size = 2 * round_i64(2.0 * scale).max(1);
+    let reach = size as f32 * std::f32::consts::FRAC_1_SQRT_2;
     let mut resp: Vec<(f32, f32, f32)> = Vec::with_capacity(109);
     for &(i, j, g) in samples() {
-        if let Some((dx, dy)) = ii.haar(x + i * scale, y + j * scale, size) {
+        let (sx, sy) = (x + i * scale, y + j * scale);
+        if mask.is_some_and(|m| !m.contains_disc(sx, sy, reach)) {
+            continue;
+        }
+        if let Some((dx, dy)) = ii.haar(sx, sy, size) {
             let (rx, ry) = (g * dx, g * dy);
             if rx != 0.0 || ry != 0.0 {
                 resp.push((ry.atan2(rx), rx, ry));
@@ -98,7 +111,7 @@ mod tests {
                 })
                 .collect();
             let ii = IntegralImage::from_u8(&px, w, h);
-            let got = orientation(&ii, 40.0, 40.0, 2.0);
+            let got = orientation(&ii, None, 40.0, 40.0, 2.0);
             let diff = (got - t).rem_euclid(TAU);
             let err = diff.min(TAU - diff);
             assert!(err < 0.1, "{deg}°: got {}°", got.to_degrees());
