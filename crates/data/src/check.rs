@@ -158,6 +158,16 @@ pub fn check_dataset(dir: &Path) -> Result<CheckReport, DataError> {
                 }
                 if meta.camera.validate().is_ok() {
                     camera = Some(meta.camera);
+                    if meta.mask.is_some() {
+                        let ds = crate::Dataset {
+                            root: dir.to_path_buf(),
+                            meta: meta.clone(),
+                            sequences: Vec::new(),
+                        };
+                        if let Err(e) = ds.load_mask() {
+                            report.problems.push(Problem::from_error(e));
+                        }
+                    }
                 }
             }
         },

@@ -3,6 +3,7 @@
 //! ```text
 //! DATASET/
 //!   dataset.toml            name, format_version, units = "mm", [source], [camera], [simulation]
+//!   mask.png                optional ([camera] mask = "mask.png"): 8-bit, non-zero = valid pixel
 //!   SEQUENCE/               one folder per trajectory (train/, test/, …)
 //!     images/000000.png …   8-bit grey or RGB PNG; frame index = file order
 //!     poses.txt             TUM trajectory, T_wc, mm — one line per image, same order
@@ -42,8 +43,12 @@ pub const IMAGES_DIR: &str = "images";
 /// Folder of a sequence's depth maps.
 pub const DEPTH_DIR: &str = "depth";
 
+/// The usual file name of a dataset's image mask.
+pub const MASK_FILE: &str = "mask.png";
+
 /// The contents of `dataset.toml`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(try_from = "meta_toml::MetaRepr", into = "meta_toml::MetaRepr")]
 pub struct DatasetMeta {
     /// Human-readable dataset name.
     pub name: String,
@@ -57,11 +62,13 @@ pub struct DatasetMeta {
     /// The camera all images of all sequences were taken with. Stored as a `[camera]` table
     /// with `model = "pinhole"`, size, intrinsics in pixels and an optional
     /// `[camera.distortion]` table (`model = "radial-tangential"` or `"fisheye"`).
-    #[serde(with = "camera_toml")]
     pub camera: Camera,
+    /// The image mask, a file name relative to the dataset folder (`[camera] mask`, usually
+    /// [`MASK_FILE`]): an 8-bit image of the frames' size, non-zero where the image is valid
+    /// (inside the field stop, off the black border). `None`: every pixel is valid.
+    pub mask: Option<String>,
     /// The simulator's full configuration when the dataset was simulated (opaque here), so
     /// the dataset can be regenerated from its own files.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulation: Option<toml::Table>,
 }
 
@@ -75,6 +82,7 @@ impl DatasetMeta {
             units: UNITS.to_string(),
             source: toml::Table::new(),
             camera,
+            mask: None,
             simulation: None,
         }
     }
@@ -101,6 +109,17 @@ impl DatasetMeta {
         }
         if let Err(e) = self.camera.validate() {
             p.push(format!("[camera]: {e}"));
+        }
+        if let Some(m) = &self.mask {
+            let path = Path::new(m);
+            if m.is_empty()
+                || path.is_absolute()
+                || path.components().any(|c| c.as_os_str() == "..")
+            {
+                p.push(format!(
+                    "[camera] mask = {m:?}; expected a file name inside the dataset folder, e.g. \"{MASK_FILE}\""
+                ));
+            }
         }
         p
     }
@@ -143,10 +162,11 @@ impl DatasetMeta {
     }
 }
 
-/// `[camera]` as stored in `dataset.toml`: [`Camera`] plus `model = "pinhole"`.
-mod camera_toml {
+/// `dataset.toml` as stored: `[camera]` holds the [`Camera`], `model = "pinhole"` and the mask.
+mod meta_toml {
+    use super::DatasetMeta;
     use endoloc_geometry::{Camera, Distortion};
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use serde::{Deserialize, Serialize};
 
     fn pinhole() -> String {
         "pinhole".to_string()
@@ -154,7 +174,7 @@ mod camera_toml {
 
     #[derive(Serialize, Deserialize)]
     #[serde(deny_unknown_fields)]
-    struct CameraRepr {
+    pub(super) struct CameraRepr {
         #[serde(default = "pinhole")]
         model: String,
         width: u32,
@@ -163,42 +183,137 @@ mod camera_toml {
         fy: f64,
         cx: f64,
         cy: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        mask: Option<String>,
         #[serde(default, skip_serializing_if = "Distortion::is_none")]
         distortion: Distortion,
     }
 
-    pub fn serialize<S: Serializer>(c: &Camera, s: S) -> Result<S::Ok, S::Error> {
-        CameraRepr {
-            model: pinhole(),
-            width: c.width,
-            height: c.height,
-            fx: c.fx,
-            fy: c.fy,
-            cx: c.cx,
-            cy: c.cy,
-            distortion: c.distortion,
-        }
-        .serialize(s)
+    #[derive(Serialize, Deserialize)]
+    pub(super) struct MetaRepr {
+        name: String,
+        format_version: u32,
+        units: String,
+        #[serde(default)]
+        source: toml::Table,
+        camera: CameraRepr,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        simulation: Option<toml::Table>,
     }
 
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Camera, D::Error> {
-        let r = CameraRepr::deserialize(d)?;
-        if r.model != "pinhole" {
-            return Err(serde::de::Error::custom(format!(
-                "camera model {:?} is not supported; expected \"pinhole\" (lens distortion goes in [camera.distortion])",
-                r.model
-            )));
+    impl TryFrom<MetaRepr> for DatasetMeta {
+        type Error = String;
+        fn try_from(r: MetaRepr) -> Result<Self, String> {
+            let c = r.camera;
+            if c.model != "pinhole" {
+                return Err(format!(
+                    "camera model {:?} is not supported; expected \"pinhole\" (lens distortion goes in [camera.distortion])",
+                    c.model
+                ));
+            }
+            Ok(DatasetMeta {
+                name: r.name,
+                format_version: r.format_version,
+                units: r.units,
+                source: r.source,
+                camera: Camera {
+                    width: c.width,
+                    height: c.height,
+                    fx: c.fx,
+                    fy: c.fy,
+                    cx: c.cx,
+                    cy: c.cy,
+                    distortion: c.distortion,
+                },
+                mask: c.mask,
+                simulation: r.simulation,
+            })
         }
-        Ok(Camera {
-            width: r.width,
-            height: r.height,
-            fx: r.fx,
-            fy: r.fy,
-            cx: r.cx,
-            cy: r.cy,
-            distortion: r.distortion,
-        })
     }
+
+    impl From<DatasetMeta> for MetaRepr {
+        fn from(m: DatasetMeta) -> Self {
+            let c = m.camera;
+            MetaRepr {
+                name: m.name,
+                format_version: m.format_version,
+                units: m.units,
+                source: m.source,
+                camera: CameraRepr {
+                    model: pinhole(),
+                    width: c.width,
+                    height: c.height,
+                    fx: c.fx,
+                    fy: c.fy,
+                    cx: c.cx,
+                    cy: c.cy,
+                    mask: m.mask,
+                    distortion: c.distortion,
+                },
+                simulation: m.simulation,
+            }
+        }
+    }
+}
+
+/// Checks a mask against the camera: its size, and at least one valid pixel.
+fn check_mask(path: &Path, mask: &image::GrayImage, camera: &Camera) -> Result<(), DataError> {
+    if (mask.width(), mask.height()) != (camera.width, camera.height) {
+        return Err(DataError::invalid(
+            path,
+            format!(
+                "mask is {}×{} pixels; expected the camera's {}×{}",
+                mask.width(),
+                mask.height(),
+                camera.width,
+                camera.height
+            ),
+        ));
+    }
+    if mask.as_raw().iter().all(|&v| v == 0) {
+        return Err(DataError::invalid(
+            path,
+            "no valid pixel (every value is 0); expected non-zero inside the field of view",
+        ));
+    }
+    Ok(())
+}
+
+/// Adds (or replaces, with `force`) the image mask of the dataset in `dir`: writes
+/// [`MASK_FILE`] and names it in `dataset.toml`, each atomically.
+///
+/// # Errors
+/// [`DataError::AlreadyExists`] when the dataset already has a mask and `force` is off;
+/// [`DataError::Invalid`] for a mask of another size or without a valid pixel; read and
+/// write errors naming the file.
+pub fn write_dataset_mask(
+    dir: &Path,
+    mask: &image::GrayImage,
+    force: bool,
+) -> Result<PathBuf, DataError> {
+    let meta_path = dir.join(META_FILE);
+    let mut meta = DatasetMeta::read(&meta_path)?;
+    let path = dir.join(MASK_FILE);
+    if !force && (meta.mask.is_some() || path.exists()) {
+        return Err(DataError::AlreadyExists { path });
+    }
+    check_mask(&path, mask, &meta.camera)?;
+    let tmp = hidden_sibling(&path, "tmp");
+    write_png(
+        &tmp,
+        mask.width(),
+        mask.height(),
+        png::ColorType::Grayscale,
+        png::BitDepth::Eight,
+        mask.as_raw(),
+    )?;
+    std::fs::rename(&tmp, &path).map_err(|e| DataError::io(&path, e))?;
+    meta.mask = Some(MASK_FILE.to_string());
+    let text = meta
+        .to_toml_string()
+        .map_err(|m| DataError::invalid(&meta_path, m))?;
+    write_atomic(&meta_path, text.as_bytes())?;
+    Ok(path)
 }
 
 /// Locks a mutex, recovering the data if another thread panicked while holding it (the state
@@ -325,6 +440,27 @@ impl DatasetWriter {
             shared: Arc::clone(&self.shared),
             frames: Mutex::new(FrameLog::default()),
         })
+    }
+
+    /// Writes the image mask (8-bit, the camera's size, non-zero = valid) as [`MASK_FILE`] and
+    /// names it in `dataset.toml` (`[camera] mask`).
+    ///
+    /// # Errors
+    /// [`DataError::Invalid`] for a mask of another size or without a valid pixel;
+    /// [`DataError::Io`] if writing fails.
+    pub fn write_mask(&mut self, mask: &image::GrayImage) -> Result<(), DataError> {
+        let path = self.shared.staging.join(MASK_FILE);
+        check_mask(&path, mask, &self.meta.camera)?;
+        write_png(
+            &path,
+            mask.width(),
+            mask.height(),
+            png::ColorType::Grayscale,
+            png::BitDepth::Eight,
+            mask.as_raw(),
+        )?;
+        self.meta.mask = Some(MASK_FILE.to_string());
+        Ok(())
     }
 
     /// Writes `dataset.toml` and moves the dataset into place at its destination (replacing
@@ -651,6 +787,27 @@ impl Dataset {
             meta,
             sequences,
         })
+    }
+
+    /// The mask file named by `[camera] mask`, when there is one.
+    pub fn mask_path(&self) -> Option<PathBuf> {
+        self.meta.mask.as_ref().map(|m| self.root.join(m))
+    }
+
+    /// The image mask (`[camera] mask`): 8-bit, the camera's size, non-zero = valid; `None`
+    /// when the dataset has none.
+    ///
+    /// # Errors
+    /// Errors naming the file when it cannot be read or decoded; [`DataError::Invalid`] when its size is not the camera's or no
+    /// pixel is valid.
+    pub fn load_mask(&self) -> Result<Option<image::GrayImage>, DataError> {
+        let Some(path) = self.mask_path() else {
+            return Ok(None);
+        };
+        let img = decode(&path)?.to_luma8();
+        let c = &self.meta.camera;
+        check_mask(&path, &img, c)?;
+        Ok(Some(img))
     }
 
     /// Loads sequence `name`: its poses, image list, sections and depth list.

@@ -24,7 +24,10 @@ pub use centerline::{
     sections_from_landmarks,
 };
 pub use check::{CheckReport, Problem, check_dataset};
-pub use dataset::{Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, Sequence, SequenceWriter};
+pub use dataset::{
+    Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, MASK_FILE, Sequence, SequenceWriter,
+    write_dataset_mask,
+};
 pub use error::DataError;
 pub use fsutil::write_atomic;
 pub use info::{DatasetInfo, SequenceInfo, dataset_info};
