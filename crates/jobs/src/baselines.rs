@@ -183,9 +183,15 @@ pub fn offsetnet(
 
 /// Monocular visual odometry over `test`, frames in order; each tracked segment is aligned
 /// to the ground truth by its first pose, with the scale from the ground truth (as the paper
-/// did for ORB-SLAM and DSO). The note says where it lost track.
-pub fn vo(camera: &Camera, test: &Sequence, progress: &dyn Progress) -> Result<Estimates> {
-    let mut vo = VisualOdometry::new(*camera, VoConfig::default())?;
+/// did for ORB-SLAM and DSO). The note says where it lost track. With `mask`, SURF stays
+/// inside the image's valid area.
+pub fn vo(
+    camera: &Camera,
+    mask: Option<std::sync::Arc<endoloc_features::Mask>>,
+    test: &Sequence,
+    progress: &dyn Progress,
+) -> Result<Estimates> {
+    let mut vo = VisualOdometry::new(*camera, VoConfig::default())?.with_mask(mask);
     let bar = bar(progress, test.len() as u64, "vo");
     let t = Instant::now();
     for i in 0..test.len() {

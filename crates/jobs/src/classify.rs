@@ -276,7 +276,11 @@ impl ClassifyJob {
                 candidate_zones: self.verify,
                 ..LocalizerConfig::default()
             };
-            (None, Some(Localizer::new(loaded, map, cfg)?))
+            let mask = crate::localize::dataset_mask(&self.seq)?;
+            (
+                None,
+                Some(Localizer::new(loaded, map, cfg)?.with_mask(mask)),
+            )
         } else {
             (Some(loaded), None)
         };

@@ -1,9 +1,13 @@
-//! `DatasetJob`: check a dataset in endoloc's format v1 for problems, or summarize it.
+//! `DatasetJob`: check a dataset in endoloc's format v1 for problems, summarize it, or find
+//! its image mask.
 
 use std::fmt;
 use std::path::PathBuf;
 
-use endoloc_data::{CheckReport, DatasetInfo, check_dataset, dataset_info};
+use endoloc_data::{
+    CheckReport, Dataset, DatasetInfo, check_dataset, dataset_info, write_dataset_mask,
+};
+use endoloc_features::{DetectedMask, MaskDetectConfig, MaskShape, detect_mask};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Context, Result};
@@ -19,16 +23,37 @@ pub enum DatasetAction {
     /// Summarize: source, camera, and per sequence frames, duration, path length, speed,
     /// sections and depth.
     Info,
+    /// Find the image mask (black border, circular field stop) from the frames and write it
+    /// as `mask.png`, named in `dataset.toml`.
+    Mask,
 }
 
 /// Checks or summarizes the dataset folder `dir` (the one holding `dataset.toml`).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DatasetJob {
     /// What to do.
     pub action: DatasetAction,
     /// Dataset folder.
     pub dir: PathBuf,
+    /// `Mask`: frames sampled evenly over every sequence.
+    pub frames: usize,
+    /// `Mask`: detection settings.
+    pub detect: MaskDetectConfig,
+    /// `Mask`: replace an existing mask.
+    pub force: bool,
+}
+
+impl Default for DatasetJob {
+    fn default() -> Self {
+        DatasetJob {
+            action: DatasetAction::default(),
+            dir: PathBuf::new(),
+            frames: 64,
+            detect: MaskDetectConfig::default(),
+            force: false,
+        }
+    }
 }
 
 /// What a `DatasetJob` found. A check that found problems is still a report; see
@@ -39,6 +64,15 @@ pub enum DatasetReport {
     Check(CheckReport),
     /// The summary.
     Info(DatasetInfo),
+    /// The mask found, from how many frames, and where it was written.
+    Mask {
+        /// The mask and its shape.
+        found: DetectedMask,
+        /// Frames it was found from.
+        frames: usize,
+        /// The file written.
+        path: PathBuf,
+    },
 }
 
 impl DatasetReport {
@@ -46,7 +80,7 @@ impl DatasetReport {
     pub fn problems(&self) -> usize {
         match self {
             DatasetReport::Check(r) => r.problems.len(),
-            DatasetReport::Info(_) => 0,
+            DatasetReport::Info(_) | DatasetReport::Mask { .. } => 0,
         }
     }
 }
@@ -55,8 +89,9 @@ impl DatasetJob {
     /// Checks or summarizes the dataset.
     ///
     /// # Errors
-    /// A dataset that cannot be read at all (for `Info`, also one with inconsistent counts).
-    pub fn run(&self, _progress: &dyn Progress) -> Result<DatasetReport> {
+    /// A dataset that cannot be read at all (for `Info`, also one with inconsistent counts);
+    /// for `Mask`, an existing mask without `force`, or frames that are all black.
+    pub fn run(&self, progress: &dyn Progress) -> Result<DatasetReport> {
         let dir = &self.dir;
         Ok(match self.action {
             DatasetAction::Check => DatasetReport::Check(
@@ -65,6 +100,55 @@ impl DatasetJob {
             DatasetAction::Info => DatasetReport::Info(
                 dataset_info(dir).with_context(|| format!("cannot summarize {}", dir.display()))?,
             ),
+            DatasetAction::Mask => self.mask(progress)?,
+        })
+    }
+
+    /// Samples frames evenly over every sequence, detects the mask and writes it.
+    fn mask(&self, progress: &dyn Progress) -> Result<DatasetReport> {
+        let ds = Dataset::open(&self.dir)?;
+        if ds.meta.mask.is_some() && !self.force {
+            return Err(crate::JobError::Exists {
+                path: ds.mask_path().unwrap_or_default(),
+                hint: " (replaces the mask)".into(),
+            });
+        }
+        let mut frames = Vec::new();
+        let seqs: Vec<_> = ds
+            .sequences
+            .iter()
+            .map(|name| ds.sequence(name))
+            .collect::<std::result::Result<_, _>>()?;
+        let total: usize = seqs.iter().map(|s| s.len()).sum();
+        if total == 0 {
+            crate::bail!("{}: no frames to find a mask from", self.dir.display());
+        }
+        let want = self.frames.clamp(1, total);
+        let bar = crate::progress::bar(progress, want as u64, "frames");
+        for k in 0..want {
+            // The k-th of `want` evenly spaced frames over all sequences in order.
+            let mut i = k * total / want;
+            let seq = seqs
+                .iter()
+                .find(|s| {
+                    if i < s.len() {
+                        true
+                    } else {
+                        i -= s.len();
+                        false
+                    }
+                })
+                .expect("i < total");
+            frames.push(seq.load_gray(i)?);
+            bar.inc(1);
+        }
+        let found = detect_mask(&frames, &self.detect)
+            .with_context(|| format!("finding the mask of {}", self.dir.display()))?;
+        let path = write_dataset_mask(&self.dir, &found.mask.to_gray(), self.force)?;
+        Ok(DatasetReport::Mask {
+            found,
+            frames: want,
+            path,
         })
     }
 }
@@ -76,6 +160,34 @@ impl fmt::Display for DatasetReport {
             DatasetReport::Info(i) => {
                 let text = i.to_string();
                 write!(f, "{}", text.strip_suffix('\n').unwrap_or(&text))
+            }
+            DatasetReport::Mask {
+                found,
+                frames,
+                path,
+            } => {
+                let shape = match found.shape {
+                    MaskShape::Circle { cx, cy, radius } => format!(
+                        "circular field stop, centre ({cx:.1}, {cy:.1}) px, radius {radius:.1} px"
+                    ),
+                    MaskShape::Rectangle { x0, y0, x1, y1 } => {
+                        format!("black border, valid columns {x0}..={x1}, rows {y0}..={y1}")
+                    }
+                    MaskShape::Region => {
+                        "irregular valid region (no circle or rectangle fits)".into()
+                    }
+                };
+                writeln!(
+                    f,
+                    "mask      {shape} (IoU {:.3} with the lit region)",
+                    found.shape_iou
+                )?;
+                writeln!(
+                    f,
+                    "valid     {:.1} % of the image, from {frames} frames",
+                    100.0 * found.mask.valid_fraction()
+                )?;
+                write!(f, "wrote     {} (named in dataset.toml)", path.display())
             }
         }
     }

@@ -39,6 +39,7 @@ pub mod view;
 
 pub use classify::{ClassifyJob, ClassifyReport, ZoneAccuracy};
 pub use dataset::{DatasetAction, DatasetJob, DatasetReport};
+pub use endoloc_features::MaskDetectConfig;
 pub use error::{Context, JobError, Result};
 pub use eval::{EvalJob, EvalReport};
 pub use features::{FeaturesJob, FeaturesReport};

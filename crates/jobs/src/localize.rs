@@ -2,10 +2,12 @@
 
 use std::fmt;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 use endoloc_data::{Dataset, Sequence, StampedPose};
 use endoloc_eval::{FrameRecord, write_frames_csv};
+use endoloc_features::Mask;
 use endoloc_geometry::Status;
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, MotionConfig};
@@ -238,7 +240,7 @@ impl LocalizeJob {
             )
         })?;
         let cfg = self.localizer_config(&map.config.surf);
-        let localizer = Localizer::new(classifier, map, cfg)?;
+        let localizer = Localizer::new(classifier, map, cfg)?.with_mask(dataset_mask(&self.seq)?);
         let n = seq.len();
         let t = Instant::now();
         let frames = {
@@ -372,7 +374,7 @@ impl LocalizeJob {
                 let (_, preds, ms) = classify(model()?)?;
                 baselines::offsetnet(reg, &train, &seq, &preds, ms, progress)?
             }
-            LocalizeMethod::Vo => baselines::vo(&camera, &seq, progress)?,
+            LocalizeMethod::Vo => baselines::vo(&camera, dataset_mask(&self.seq)?, &seq, progress)?,
             LocalizeMethod::Endoloc => unreachable!("endoloc is not a baseline"),
         };
         crate::output::create_dir(&self.out)?;
@@ -426,6 +428,36 @@ pub fn dataset_camera(seq_dir: &Path) -> Result<endoloc_geometry::Camera> {
         )
     })?;
     Ok(ds.meta.camera)
+}
+
+/// The image mask of the dataset that holds sequence folder `seq_dir` (`[camera] mask`), when
+/// it has one.
+///
+/// # Errors
+/// A sequence folder outside a dataset; an unreadable or invalid mask.
+pub fn dataset_mask(seq_dir: &Path) -> Result<Option<Arc<Mask>>> {
+    let parent = seq_dir
+        .canonicalize()
+        .map_err(|e| JobError::io(seq_dir, e))?
+        .parent()
+        .map(Path::to_path_buf)
+        .context("the sequence folder has no parent dataset folder")?;
+    mask_of(&Dataset::open(&parent)?)
+}
+
+/// The image mask of `dataset`, when it has one.
+///
+/// # Errors
+/// An unreadable or invalid mask.
+pub fn mask_of(dataset: &Dataset) -> Result<Option<Arc<Mask>>> {
+    match dataset.load_mask()? {
+        None => Ok(None),
+        Some(img) => {
+            let path = dataset.mask_path().unwrap_or_default();
+            let mask = Mask::from_gray(&img).with_context(|| format!("mask {}", path.display()))?;
+            Ok(Some(Arc::new(mask)))
+        }
+    }
 }
 
 /// The frames of `seq` that have a pose, with their timestamps.

@@ -7,7 +7,7 @@ use std::time::Instant;
 use endoloc_data::Dataset;
 use endoloc_localize::export::{write_colmap_text, write_zone_ply};
 use endoloc_localize::map_io::save_map;
-use endoloc_localize::{MapConfig, MapSummary, build_map};
+use endoloc_localize::{MapConfig, MapSummary, build_map_masked};
 use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
 
@@ -96,10 +96,11 @@ impl MapJob {
         let t = Instant::now();
         let map = {
             let bar = bar(progress, classifier.zone_count() as u64, "map");
-            build_map(
+            build_map_masked(
                 &train,
                 classifier.zones(),
                 &dataset.meta.camera,
+                crate::localize::mask_of(&dataset)?,
                 &cfg,
                 &|_| bar.inc(1),
             )?

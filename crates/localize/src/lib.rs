@@ -22,7 +22,10 @@ pub mod pipeline;
 #[cfg(test)]
 mod config_tests;
 
-pub use map::{DEFAULT_MAP_THRESHOLD, Map, MapConfig, MapPoint, MapSummary, ZoneMap, build_map};
+pub use map::{
+    DEFAULT_MAP_THRESHOLD, Map, MapConfig, MapPoint, MapSummary, ZoneMap, build_map,
+    build_map_masked,
+};
 pub use motion::{Gate, MotionConfig, Prediction, Track};
 pub use pipeline::{
     FrameResult, LiveState, Localizer, LocalizerConfig, PoseSource, RetryFeatures, StageTimes,

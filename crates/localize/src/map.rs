@@ -190,6 +190,22 @@ pub fn build_map(
     cfg: &MapConfig,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Map, LocalizeError> {
+    build_map_masked(train, zones, camera, None, cfg, progress)
+}
+
+/// [`build_map`] for frames with an image mask (black border, field stop): SURF detects and
+/// describes only inside it ([`endoloc_features::mask`]).
+///
+/// # Errors
+/// As [`build_map`]; a mask of another size than the frames.
+pub fn build_map_masked(
+    train: &Sequence,
+    zones: &ZoneTable,
+    camera: &Camera,
+    mask: Option<std::sync::Arc<endoloc_features::Mask>>,
+    cfg: &MapConfig,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Map, LocalizeError> {
     cfg.validate()?;
     if zones.frame_count() != train.len() {
         return Err(LocalizeError::Mismatch(format!(
@@ -199,7 +215,12 @@ pub fn build_map(
             train.len()
         )));
     }
-    let surf = cfg.surf.clone().with_parallel(false).init()?;
+    let surf = cfg
+        .surf
+        .clone()
+        .with_parallel(false)
+        .init()?
+        .with_mask(mask);
     let matcher = Matcher::new(cfg.matcher.clone().with_parallel(false));
     let zone_maps: Result<Vec<ZoneMap>, LocalizeError> = zones
         .zones

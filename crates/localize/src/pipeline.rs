@@ -320,6 +320,14 @@ impl Localizer {
         })
     }
 
+    /// This localizer for frames with an image mask (black border, field stop): test-frame
+    /// SURF, and the retry's, detect and describe only inside it. `None`: the whole image.
+    pub fn with_mask(mut self, mask: Option<std::sync::Arc<endoloc_features::Mask>>) -> Self {
+        self.surf = self.surf.with_mask(mask.clone());
+        self.retry_surf = self.retry_surf.map(|s| s.with_mask(mask));
+        self
+    }
+
     /// The camera of the model (test images must match it).
     pub fn camera(&self) -> &Camera {
         &self.map.camera

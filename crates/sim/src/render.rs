@@ -51,6 +51,12 @@ pub struct RenderConfig {
     pub motion_blur_samples: usize,
     /// Exposure time as a fraction of the frame interval (for motion blur).
     pub shutter_fraction: f64,
+    /// Radius of a circular field stop centred on the principal point, as a fraction of the
+    /// half image diagonal (0 = none): pixels outside it are black, as on real endoscopes.
+    pub field_stop: f64,
+    /// Black border: this many columns on the left and on the right of every frame are
+    /// black (0 = none).
+    pub black_border_px: u32,
 }
 
 impl Default for RenderConfig {
@@ -68,6 +74,8 @@ impl Default for RenderConfig {
             noise_sigma: 1.5,
             motion_blur_samples: 1,
             shutter_fraction: 0.5,
+            field_stop: 0.0,
+            black_border_px: 0,
         }
     }
 }
@@ -108,6 +116,7 @@ impl RenderConfig {
             (0.0..=1.0).contains(&self.vignetting),
         )?;
         check("noise_sigma", self.noise_sigma, self.noise_sigma >= 0.0)?;
+        check("field_stop", self.field_stop, self.field_stop >= 0.0)?;
         check(
             "shutter_fraction",
             self.shutter_fraction,
@@ -155,6 +164,8 @@ pub struct Renderer<'a> {
     cfg: RenderConfig,
     gamma_lut: Vec<u8>,
     vignette: Vec<f32>,
+    /// The valid area (255) when a field stop or black border hides part of the frame.
+    mask: Option<Vec<u8>>,
 }
 
 impl<'a> Renderer<'a> {
@@ -191,14 +202,36 @@ impl<'a> Renderer<'a> {
         let (w, h) = (camera.width as usize, camera.height as usize);
         let half_diag2 = ((w as f64 / 2.0).powi(2) + (h as f64 / 2.0).powi(2)).max(1e-9);
         let mut vignette = Vec::with_capacity(w * h);
+        let mut mask = Vec::with_capacity(w * h);
+        let stop2 = cfg.field_stop * cfg.field_stop;
+        let border = cfg.black_border_px as usize;
+        if 2 * border >= w {
+            return Err(SimError::InvalidConfig(format!(
+                "render: black_border_px = {border} leaves nothing of a {w}-pixel-wide image"
+            )));
+        }
         for y in 0..h {
             for x in 0..w {
                 let dx = x as f64 - camera.cx;
                 let dy = y as f64 - camera.cy;
                 let r2 = (dx * dx + dy * dy) / half_diag2;
-                vignette.push((1.0 - cfg.vignetting * r2).max(0.0) as f32);
+                let valid = (stop2 == 0.0 || r2 <= stop2) && x >= border && x < w - border;
+                mask.push(if valid { 255u8 } else { 0 });
+                let v = if valid {
+                    (1.0 - cfg.vignetting * r2).max(0.0) as f32
+                } else {
+                    0.0
+                };
+                vignette.push(v);
             }
         }
+        if !mask.contains(&255) {
+            return Err(SimError::InvalidConfig(format!(
+                "render: field_stop = {} leaves no pixel inside the field stop",
+                cfg.field_stop
+            )));
+        }
+        let has_mask = mask.contains(&0);
         Ok(Renderer {
             colon,
             atlas,
@@ -206,6 +239,7 @@ impl<'a> Renderer<'a> {
             cfg,
             gamma_lut,
             vignette,
+            mask: has_mask.then_some(mask),
         })
     }
 
@@ -217,6 +251,12 @@ impl<'a> Renderer<'a> {
     /// The render settings.
     pub fn config(&self) -> &RenderConfig {
         &self.cfg
+    }
+
+    /// The valid area of every frame (8-bit, row-major, 255 = valid) when a field stop or a
+    /// black border hides part of it; `None` when every pixel is valid.
+    pub fn mask(&self) -> Option<&[u8]> {
+        self.mask.as_deref()
     }
 
     /// Renders one frame seen from `sub_poses` (T_wc, mm), each with the arc length of the

@@ -92,7 +92,7 @@ pub fn simulate(
         .map_err(|e| SimError::InvalidConfig(format!("cannot store the config: {e}")))?;
     meta.simulation = Some(sim_table);
     // Fail on an existing destination before any expensive work.
-    let writer = DatasetWriter::create(out, &meta, overwrite)?;
+    let mut writer = DatasetWriter::create(out, &meta, overwrite)?;
 
     progress(Progress::Stage("colon"));
     let colon = build_colon(cfg)?;
@@ -104,6 +104,11 @@ pub fn simulate(
         ("test", PassGenerator::new(&colon, &cfg.test)?),
     ];
     let renderer = Renderer::new(&colon, &atlas, camera, cfg.render.clone())?;
+    if let Some(mask) = renderer.mask() {
+        let img = image::GrayImage::from_raw(camera.width, camera.height, mask.to_vec())
+            .expect("the mask has one byte per pixel");
+        writer.write_mask(&img)?;
+    }
 
     let render_start = Instant::now();
     let mut sequences = Vec::new();

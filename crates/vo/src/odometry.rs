@@ -305,6 +305,13 @@ impl VisualOdometry {
         })
     }
 
+    /// This odometry for frames with an image mask (black border, field stop): SURF detects
+    /// and describes only inside it. `None`: the whole image.
+    pub fn with_mask(mut self, mask: Option<std::sync::Arc<endoloc_features::Mask>>) -> Self {
+        self.surf = self.surf.with_mask(mask);
+        self
+    }
+
     /// The configuration in use.
     pub fn config(&self) -> &VoConfig {
         &self.cfg

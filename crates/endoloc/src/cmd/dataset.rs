@@ -1,4 +1,5 @@
-//! `endoloc dataset`: inspect datasets in endoloc's format v1 (`check`, `info`).
+//! `endoloc dataset`: inspect datasets in endoloc's format v1 (`check`, `info`) and find their
+//! image mask (`mask`).
 
 use std::path::PathBuf;
 
@@ -12,6 +13,8 @@ use endoloc_jobs::{DatasetAction, DatasetJob, Progress};
 ///   endoloc dataset check data/small
 ///
 ///   endoloc dataset info data/small
+///
+///   endoloc dataset mask data/c3vd-like
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -34,15 +37,61 @@ enum Command {
         /// Dataset folder (the one holding dataset.toml).
         dir: PathBuf,
     },
+    /// Find the image mask — black border, circular field stop — from frames sampled over
+    /// every sequence (lit in some frame = valid; holes filled; a circle or rectangle fitted
+    /// when one fits), write it as mask.png and name it in dataset.toml ([camera] mask).
+    /// SURF, maps, localization and the VO baseline then keep inside it.
+    Mask {
+        /// Dataset folder (the one holding dataset.toml).
+        dir: PathBuf,
+        /// Frames sampled evenly over every sequence.
+        #[arg(long, default_value_t = DatasetJob::default().frames)]
+        frames: usize,
+        /// A pixel whose smoothed maximum over the frames is at or below this (0–255) is
+        /// black.
+        #[arg(long, default_value_t = DatasetJob::default().detect.threshold)]
+        threshold: u8,
+        /// Shrink the valid area by this many pixels (the dim ring at a field stop's edge).
+        #[arg(long, default_value_t = DatasetJob::default().detect.margin_px)]
+        margin_px: f32,
+        /// Replace an existing mask.
+        #[arg(long)]
+        force: bool,
+    },
 }
 
 impl From<Args> for DatasetJob {
     fn from(a: Args) -> Self {
-        let (action, dir) = match a.command {
-            Command::Check { dir } => (DatasetAction::Check, dir),
-            Command::Info { dir } => (DatasetAction::Info, dir),
-        };
-        DatasetJob { action, dir }
+        let base = DatasetJob::default();
+        match a.command {
+            Command::Check { dir } => DatasetJob {
+                action: DatasetAction::Check,
+                dir,
+                ..base
+            },
+            Command::Info { dir } => DatasetJob {
+                action: DatasetAction::Info,
+                dir,
+                ..base
+            },
+            Command::Mask {
+                dir,
+                frames,
+                threshold,
+                margin_px,
+                force,
+            } => DatasetJob {
+                action: DatasetAction::Mask,
+                dir,
+                frames,
+                detect: endoloc_jobs::MaskDetectConfig {
+                    threshold,
+                    margin_px,
+                    ..base.detect
+                },
+                force,
+            },
+        }
     }
 }
 

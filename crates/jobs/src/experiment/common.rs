@@ -197,12 +197,18 @@ impl FeatureCache {
         retry_threshold: f32,
         progress: &dyn Progress,
     ) -> Result<Self> {
-        let extractor = surf.clone().init().context("SURF settings")?;
+        let mask = crate::localize::dataset_mask(&seq.dir)?;
+        let extractor = surf
+            .clone()
+            .init()
+            .context("SURF settings")?
+            .with_mask(mask.clone());
         let retry_threshold = effective_retry(surf, retry_threshold);
         let retry = (retry_threshold > 0.0)
             .then(|| surf.clone().with_threshold(retry_threshold).init())
             .transpose()
-            .context("SURF retry settings")?;
+            .context("SURF retry settings")?
+            .map(|s| s.with_mask(mask));
         let bar = bar(progress, seq.len() as u64, "SURF");
         type Timed = (Vec<Feature>, f64);
         let out: Result<Vec<(Timed, Timed)>> = (0..seq.len())

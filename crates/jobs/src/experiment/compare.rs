@@ -357,7 +357,12 @@ impl Ctx<'_> {
                             baselines::offsetnet(&dir, &train, test, &preds, zone_ms, progress)?
                         }
                     }
-                    _ => baselines::vo(&ds.meta.camera, test, progress)?,
+                    _ => baselines::vo(
+                        &ds.meta.camera,
+                        crate::localize::mask_of(&ds)?,
+                        test,
+                        progress,
+                    )?,
                 };
                 if let Some(note) = &est.note {
                     note!(progress, "{note}");
