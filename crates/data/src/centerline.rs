@@ -8,6 +8,7 @@ use crate::fsutil::read_text;
 use crate::{DataError, Section};
 use nalgebra::Point3;
 use serde::Deserialize;
+use std::fmt;
 use std::path::Path;
 
 /// Reads a mid-line path (positions in the file's units, mm for the GCA models).
@@ -336,6 +337,56 @@ fn find(landmarks: &[Landmark], abbr: &str) -> Option<usize> {
         .map(|l| l.path_index)
 }
 
+/// The six landmarks that bound the sections, in insertion order: abbreviation (GCA), name,
+/// and typical distance from the anus along an adult colon, mm (from the typical section
+/// lengths: anal canal 35, rectum 120, recto-sigmoid 30, sigmoid 400, descending 250, splenic
+/// flexure 80, transverse 450, hepatic flexure 80, ascending 150, caecum 60).
+const BOUNDS: [(&str, &str, f64); 6] = [
+    ("anus", "anus", 0.0),
+    ("RSJ", "recto-sigmoid junction", 170.0),
+    ("DSJ", "descending-sigmoid junction", 585.0),
+    ("SF", "splenic flexure", 875.0),
+    ("HF", "hepatic flexure", 1405.0),
+    ("CCJ", "caeco-colonic junction", 1595.0),
+];
+
+/// Typical distance from the anus to the caecal pole (where the appendix orifice lies), mm.
+const TYPICAL_CAECAL_POLE_MM: f64 = 1655.0;
+
+/// A section-bounding landmark that the landmark file lacks, and where the cut placed it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EstimatedLandmark {
+    /// Abbreviation of the missing landmark, e.g. "RSJ".
+    pub abbreviation: &'static str,
+    /// Its anatomy text, e.g. "recto-sigmoid junction".
+    pub name: &'static str,
+    /// The path index it was placed at.
+    pub path_index: usize,
+    /// How: e.g. "the caecum starts at ICVc (path index 1549)", or "by typical section lengths
+    /// between anus (path index 0) and DSJ (path index 910)".
+    pub how: String,
+}
+
+impl fmt::Display for EstimatedLandmark {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "landmark {} ({}) is missing: placed at path index {}, {}",
+            self.abbreviation, self.name, self.path_index, self.how
+        )
+    }
+}
+
+/// The anatomical sections of a path and the landmarks that had to be estimated for them.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SectionCut {
+    /// The ten sections in insertion order, covering the path.
+    pub ranges: Vec<SectionRange>,
+    /// Section-bounding landmarks absent from the file, with where they were placed; empty
+    /// when the file has all of anus, RSJ, DSJ, SF, HF and CCJ.
+    pub estimated: Vec<EstimatedLandmark>,
+}
+
 /// Cuts a path of `n_points` points into the ten anatomical sections, in insertion order,
 /// from the landmarks abbreviated `anus`, `RSJ`, `DSJ`, `SF`, `HF`, `CCJ` (GCA names):
 ///
@@ -356,29 +407,20 @@ fn find(landmarks: &[Landmark], abbr: &str) -> Option<usize> {
 /// more than a third of the way to the neighbouring landmark, and every section keeps at least
 /// one point. `ICVc` and `AO`, when present, must lie in the caecum.
 ///
+/// Landmark files do not always have all six (several GCA models lack RSJ and CCJ). A
+/// missing one is placed, and listed in [`SectionCut::estimated`]:
+///
+/// - `anus`: path index 0 (paths start at the anus);
+/// - `CCJ`: at the ileocaecal valve `ICVc` when present (the caecum starts at the valve);
+/// - any other: between its nearest present neighbours, in proportion to typical adult
+///   section lengths (see `BOUNDS` above: RSJ 170 mm from the anus, DSJ 585, SF 875, HF
+///   1405, CCJ 1595, caecal pole 1655). Beyond the last present landmark the far anchor is
+///   the appendix orifice `AO` (the caecal pole) when present, else the end of the path.
+///
 /// # Errors
-/// [`DataError::Anatomy`] naming a missing landmark, landmarks out of order or beyond the
-/// path, or a path with fewer than 10 points.
-pub fn section_ranges(
-    n_points: usize,
-    landmarks: &[Landmark],
-) -> Result<Vec<SectionRange>, DataError> {
-    const NEEDED: [(&str, &str); 6] = [
-        ("anus", "anus"),
-        ("RSJ", "recto-sigmoid junction"),
-        ("DSJ", "descending-sigmoid junction"),
-        ("SF", "splenic flexure"),
-        ("HF", "hepatic flexure"),
-        ("CCJ", "caeco-colonic junction"),
-    ];
-    let mut at = [0usize; 6];
-    for (k, (abbr, name)) in NEEDED.iter().enumerate() {
-        at[k] = find(landmarks, abbr).ok_or_else(|| DataError::Anatomy {
-            message: format!(
-                "missing landmark {abbr} ({name}); expected all of anus, RSJ, DSJ, SF, HF, CCJ"
-            ),
-        })?;
-    }
+/// [`DataError::Anatomy`] naming present landmarks out of order or beyond the path, `ICVc`
+/// or `AO` before the caecum, or a path with fewer than 10 points.
+pub fn section_cut(n_points: usize, landmarks: &[Landmark]) -> Result<SectionCut, DataError> {
     if n_points < Section::ALL.len() {
         return Err(DataError::Anatomy {
             message: format!(
@@ -387,31 +429,104 @@ pub fn section_ranges(
             ),
         });
     }
-    for k in 0..6 {
-        if at[k] >= n_points {
+    for l in landmarks {
+        if l.path_index >= n_points {
             return Err(DataError::Anatomy {
                 message: format!(
                     "landmark {} is at path index {}; expected < {n_points} (the number of path points)",
-                    NEEDED[k].0, at[k]
-                ),
-            });
-        }
-        if k > 0 && at[k] <= at[k - 1] {
-            return Err(DataError::Anatomy {
-                message: format!(
-                    "landmark {} (index {}) is not after {} (index {}); expected the order anus < RSJ < DSJ < SF < HF < CCJ along the path",
-                    NEEDED[k].0,
-                    at[k],
-                    NEEDED[k - 1].0,
-                    at[k - 1]
+                    l.abbreviation, l.path_index
                 ),
             });
         }
     }
-    let [a, r, d, s, h, c] = at;
-    for (abbr, name) in [("ICVc", "ileocaecal valve"), ("AO", "appendix orifice")] {
-        if let Some(i) = find(landmarks, abbr)
-            && (i < c || i >= n_points)
+    // The present bounds, with CCJ taken from ICVc when it is missing.
+    let mut at: [Option<usize>; 6] = BOUNDS.map(|(abbr, _, _)| find(landmarks, abbr));
+    let mut estimated = Vec::new();
+    let icvc = find(landmarks, "ICVc");
+    let ao = find(landmarks, "AO");
+    if at[5].is_none()
+        && let Some(i) = icvc
+    {
+        at[5] = Some(i);
+        estimated.push(EstimatedLandmark {
+            abbreviation: BOUNDS[5].0,
+            name: BOUNDS[5].1,
+            path_index: i,
+            how: format!("the caecum starts at ICVc (path index {i})"),
+        });
+    }
+    let present: Vec<(usize, usize)> = at
+        .iter()
+        .enumerate()
+        .filter_map(|(k, i)| i.map(|i| (k, i)))
+        .collect();
+    for w in present.windows(2) {
+        let ((k0, i0), (k1, i1)) = (w[0], w[1]);
+        if i1 <= i0 {
+            let order = BOUNDS.map(|b| b.0).join(" < ");
+            return Err(DataError::Anatomy {
+                message: format!(
+                    "landmark {} (index {i1}) is not after {} (index {i0}); expected the order {order} along the path",
+                    BOUNDS[k1].0, BOUNDS[k0].0
+                ),
+            });
+        }
+    }
+    // The far anchor: the caecal pole (AO) or the end of the path.
+    let (pole, pole_name) = match ao {
+        Some(i) => (i, "AO"),
+        None => (n_points - 1, "the end of the path"),
+    };
+    for k in 0..6 {
+        if at[k].is_some() {
+            continue;
+        }
+        if k == 0 {
+            at[0] = Some(0);
+            estimated.push(EstimatedLandmark {
+                abbreviation: BOUNDS[0].0,
+                name: BOUNDS[0].1,
+                path_index: 0,
+                how: "the start of the path".into(),
+            });
+            continue;
+        }
+        // Nearest present (or already placed) neighbour before, present one after.
+        let (kp, ip) = (0..k)
+            .rev()
+            .find_map(|q| at[q].map(|i| (q, i)))
+            .unwrap_or((0, 0));
+        let next = (k + 1..6).find_map(|q| at[q].map(|i| (q, i)));
+        let (tn, in_, next_name) = match next {
+            Some((q, i)) => (BOUNDS[q].2, i, format!("{} (path index {i})", BOUNDS[q].0)),
+            None => (
+                TYPICAL_CAECAL_POLE_MM,
+                pole.max(ip),
+                format!("{pole_name} (path index {pole})"),
+            ),
+        };
+        let tp = BOUNDS[kp].2;
+        let f = (BOUNDS[k].2 - tp) / (tn - tp);
+        let i = ip + ((in_ - ip) as f64 * f).round() as usize;
+        at[k] = Some(i);
+        estimated.push(EstimatedLandmark {
+            abbreviation: BOUNDS[k].0,
+            name: BOUNDS[k].1,
+            path_index: i,
+            how: format!(
+                "by typical section lengths between {} (path index {ip}) and {next_name}",
+                BOUNDS[kp].0
+            ),
+        });
+    }
+    estimated.sort_by_key(|e| BOUNDS.iter().position(|b| b.0 == e.abbreviation));
+    let [a, r, d, s, h, c] = at.map(|i| i.unwrap_or(0));
+    for (abbr, name, i) in [
+        ("ICVc", "ileocaecal valve", icvc),
+        ("AO", "appendix orifice", ao),
+    ] {
+        if let Some(i) = i
+            && i < c
         {
             return Err(DataError::Anatomy {
                 message: format!(
@@ -423,9 +538,12 @@ pub fn section_ranges(
     // A window around landmark `l` between neighbours `p` and `n`, each side at most a third
     // of the way to the neighbour.
     let window = |l: usize, p: usize, n: usize, half: usize| {
-        (l - half.min((l - p) / 3), l + half.min((n - l) / 3))
+        (
+            l - half.min(l.saturating_sub(p) / 3),
+            l + half.min(n.saturating_sub(l) / 3),
+        )
     };
-    let anal_end = a + ANAL_CANAL_POINTS.min((r - a) / 3);
+    let anal_end = a + ANAL_CANAL_POINTS.min(r.saturating_sub(a) / 3);
     let (rs_lo, rs_hi) = window(r, a, d, RECTOSIGMOID_HALF);
     let (sf_lo, sf_hi) = window(s, d, h, FLEXURE_HALF);
     let (hf_lo, hf_hi) = window(h, s, c, FLEXURE_HALF);
@@ -439,7 +557,7 @@ pub fn section_ranges(
     for k in (1..10).rev() {
         b[k] = b[k].min(b[k + 1] - 1);
     }
-    Ok(Section::ALL
+    let ranges = Section::ALL
         .iter()
         .enumerate()
         .map(|(k, &section)| SectionRange {
@@ -447,7 +565,20 @@ pub fn section_ranges(
             start: b[k],
             end: b[k + 1],
         })
-        .collect())
+        .collect();
+    Ok(SectionCut { ranges, estimated })
+}
+
+/// The ten sections of a path from its landmarks; see [`section_cut`] for the rules and for
+/// the landmarks that were estimated.
+///
+/// # Errors
+/// As [`section_cut`].
+pub fn section_ranges(
+    n_points: usize,
+    landmarks: &[Landmark],
+) -> Result<Vec<SectionRange>, DataError> {
+    Ok(section_cut(n_points, landmarks)?.ranges)
 }
 
 /// One [`Section`] per path point, from the landmarks; see [`section_ranges`] for the rules.
@@ -458,7 +589,7 @@ pub fn sections_from_landmarks(
     n_points: usize,
     landmarks: &[Landmark],
 ) -> Result<Vec<Section>, DataError> {
-    let ranges = section_ranges(n_points, landmarks)?;
+    let ranges = section_cut(n_points, landmarks)?.ranges;
     let mut out = Vec::with_capacity(n_points);
     for r in ranges {
         out.extend(std::iter::repeat_n(r.section, r.end - r.start));

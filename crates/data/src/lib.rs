@@ -11,6 +11,7 @@ pub mod check;
 pub mod dataset;
 pub mod error;
 pub mod fsutil;
+pub mod gca;
 pub mod import;
 pub mod info;
 pub mod mesh;
@@ -20,8 +21,8 @@ pub mod trajectory;
 
 pub use anatomy::Section;
 pub use centerline::{
-    Landmark, SectionRange, cumulative_length, read_gca_landmarks, read_path, section_ranges,
-    sections_from_landmarks,
+    EstimatedLandmark, Landmark, SectionCut, SectionRange, cumulative_length, read_gca_landmarks,
+    read_path, section_cut, section_ranges, sections_from_landmarks,
 };
 pub use check::{CheckReport, Problem, check_dataset};
 pub use dataset::{
@@ -30,6 +31,7 @@ pub use dataset::{
 };
 pub use error::DataError;
 pub use fsutil::write_atomic;
+pub use gca::{GcaModelFiles, find_gca_model};
 pub use info::{DatasetInfo, SequenceInfo, dataset_info};
 pub use mesh::{TriMesh, read_mesh};
 pub use png_io::{MAX_DEPTH_MM, depth_code_from_mm, depth_mm_from_code};

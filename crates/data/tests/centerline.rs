@@ -1,8 +1,8 @@
 //! Mid-line paths, GCA landmarks and the sections cut from them.
 
 use endoloc_data::{
-    DataError, Landmark, Section, cumulative_length, read_gca_landmarks, read_path, section_ranges,
-    sections_from_landmarks,
+    DataError, Landmark, Section, cumulative_length, read_gca_landmarks, read_path, section_cut,
+    section_ranges, sections_from_landmarks,
 };
 use std::path::{Path, PathBuf};
 
@@ -150,15 +150,7 @@ fn sections_stay_ordered_and_non_empty_on_tiny_paths() {
 }
 
 #[test]
-fn missing_or_disordered_landmarks_are_named() {
-    let mut lms = gca_like();
-    lms.retain(|l| l.abbreviation != "SF");
-    let msg = sections_from_landmarks(1375, &lms).unwrap_err().to_string();
-    assert!(
-        msg.contains("missing landmark SF (splenic flexure)"),
-        "{msg}"
-    );
-
+fn disordered_or_out_of_range_landmarks_are_named() {
     let mut lms = gca_like();
     lms[2].path_index = 900; // DSJ after SF
     let msg = sections_from_landmarks(1375, &lms).unwrap_err().to_string();
@@ -171,6 +163,104 @@ fn missing_or_disordered_landmarks_are_named() {
         .unwrap_err()
         .to_string();
     assert!(msg.contains("CCJ") && msg.contains("< 1200"), "{msg}");
+
+    // ICVc before the hepatic flexure cannot start the caecum.
+    let mut lms = gca_like();
+    lms.retain(|l| l.abbreviation != "CCJ");
+    lms.iter_mut()
+        .find(|l| l.abbreviation == "ICVc")
+        .unwrap()
+        .path_index = 1000;
+    let msg = sections_from_landmarks(1375, &lms).unwrap_err().to_string();
+    assert!(msg.contains("CCJ") && msg.contains("HF"), "{msg}");
+}
+
+/// The landmarks of GCA models such as EdinGCA_3D_00060 (path of 1625 points): no RSJ, no
+/// CCJ, and the path runs on through the appendix orifice to the appendix tip.
+fn without_rsj_and_ccj() -> Vec<Landmark> {
+    vec![
+        lm("anus", 0),
+        lm("DSJ", 910),
+        lm("SF", 1247),
+        lm("HF", 1381),
+        lm("ICVc", 1549),
+        lm("AO", 1606),
+        lm("AT", 1624),
+    ]
+}
+
+#[test]
+fn missing_rsj_and_ccj_are_placed_from_the_landmarks_present_and_reported() {
+    let cut = section_cut(1625, &without_rsj_and_ccj()).unwrap();
+    // RSJ: 170 of the typical 585 mm from the anus to the DSJ; CCJ: at the ileocaecal valve.
+    let placed: Vec<(&str, usize)> = cut
+        .estimated
+        .iter()
+        .map(|e| (e.abbreviation, e.path_index))
+        .collect();
+    assert_eq!(placed, vec![("RSJ", 264), ("CCJ", 1549)]);
+    let lines: Vec<String> = cut.estimated.iter().map(|e| e.to_string()).collect();
+    assert_eq!(
+        lines[0],
+        "landmark RSJ (recto-sigmoid junction) is missing: placed at path index 264, by typical \
+         section lengths between anus (path index 0) and DSJ (path index 910)"
+    );
+    assert!(
+        lines[1].contains("the caecum starts at ICVc (path index 1549)"),
+        "{}",
+        lines[1]
+    );
+    let got: Vec<_> = cut
+        .ranges
+        .iter()
+        .map(|r| (r.section, r.start, r.end))
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            (Section::AnalCanal, 0, 30),
+            (Section::Rectum, 30, 249),
+            (Section::Rectosigmoid, 249, 279),
+            (Section::Sigmoid, 279, 910),
+            (Section::Descending, 910, 1207),
+            (Section::SplenicFlexure, 1207, 1287),
+            (Section::Transverse, 1287, 1341),
+            (Section::HepaticFlexure, 1341, 1421),
+            (Section::Ascending, 1421, 1549),
+            (Section::Caecum, 1549, 1625),
+        ]
+    );
+    // A complete landmark file estimates nothing.
+    assert!(section_cut(1375, &gca_like()).unwrap().estimated.is_empty());
+}
+
+#[test]
+fn a_missing_middle_landmark_is_placed_between_its_neighbours() {
+    let mut lms = gca_like();
+    lms.retain(|l| l.abbreviation != "SF");
+    let cut = section_cut(1375, &lms).unwrap();
+    assert_eq!(cut.estimated.len(), 1);
+    let sf = &cut.estimated[0];
+    // DSJ 323 and HF 1154 bound it; typically 290 of their 820 mm.
+    assert_eq!((sf.abbreviation, sf.path_index), ("SF", 617));
+    assert!(
+        sf.to_string()
+            .contains("between DSJ (path index 323) and HF (path index 1154)")
+    );
+    let labels = sections_from_landmarks(1375, &lms).unwrap();
+    assert_eq!(labels[617], Section::SplenicFlexure);
+    assert!(labels.windows(2).all(|w| w[0] <= w[1]));
+
+    // Only the anus: every section from typical lengths, up to the appendix orifice.
+    let cut = section_cut(1000, &[lm("anus", 0), lm("AO", 990)]).unwrap();
+    assert_eq!(cut.estimated.len(), 5);
+    assert!(
+        cut.estimated[4]
+            .to_string()
+            .contains("and AO (path index 990)")
+    );
+    let order: Vec<Section> = cut.ranges.iter().map(|r| r.section).collect();
+    assert_eq!(order, Section::ALL.to_vec());
 }
 
 fn gca_dir() -> Option<PathBuf> {

@@ -241,3 +241,78 @@ fn ex_vivo_poses_join_on_image_frame_with_the_given_units() {
     };
     assert!(m.contains("poses.xlsx") && m.contains(expected), "{m}");
 }
+
+/// The ex-vivo recordings as published:
+/// `Cameras/HighCam/Colon-IV/TumorfreeTrajectory_1/Frames/frame_000001.jpg`, … and one pose
+/// sheet in `Poses/` whose `ImageFrame` is the number in the frame's name (here its CSV
+/// export, columns as in the workbook). Given the trajectory folder alone, the importer finds
+/// both, pairs by number, and writes a dataset.
+#[test]
+fn the_published_ex_vivo_layout_imports_from_the_trajectory_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = tmp
+        .path()
+        .join("Cameras/HighCam/Colon-IV/TumorfreeTrajectory_1");
+    std::fs::create_dir_all(src.join("Frames")).unwrap();
+    std::fs::create_dir_all(src.join("Poses")).unwrap();
+    std::fs::create_dir_all(tmp.path().join("Cameras/HighCam/Calibration")).unwrap();
+    for i in 1..=6 {
+        image::RgbImage::from_pixel(8, 6, image::Rgb([40 * i as u8, 0, 0]))
+            .save(src.join(format!("Frames/frame_{i:06}.jpg")))
+            .unwrap();
+    }
+    let mut csv =
+        String::from("ImageFrame,Pose_Index,trans_x,trans_y,trans_z,quot_x,quot_y,quot_z,quot_w\n");
+    for i in 1..=6 {
+        let (t, q) = truth(i);
+        writeln!(
+            csv,
+            "{i},{},{},{},{},{},{},{},{}",
+            i - 1,
+            t.x,
+            t.y,
+            t.z,
+            q.i,
+            q.j,
+            q.k,
+            q.w
+        )
+        .unwrap();
+    }
+    std::fs::write(
+        src.join("Poses/low_high_pose_colon_test_1_high_images.csv"),
+        csv,
+    )
+    .unwrap();
+    let cfg = EndoSlamConfig {
+        fps: 20.0,
+        ..EndoSlamConfig::new(camera(), Units::M)
+    };
+    let seq = read_endoslam(&src, &cfg).unwrap();
+    assert_eq!(seq.frames.len(), 6);
+    assert!(seq.notes.is_empty(), "{:?}", seq.notes);
+    for (k, f) in seq.frames.iter().enumerate() {
+        let i = k + 1;
+        assert!(f.image.ends_with(format!("frame_{i:06}.jpg")));
+        let (t, _) = truth(i);
+        assert!(
+            (f.pose.pose.translation.vector - 1000.0 * t).norm() < 1e-9,
+            "frame {i}"
+        );
+        assert!((f.pose.timestamp_s - i as f64 / 20.0).abs() < 1e-12);
+    }
+    let out = tmp.path().join("ds");
+    write_import(
+        &out,
+        &[("train".into(), seq)],
+        &WriteImportConfig::default(),
+    )
+    .unwrap();
+    let s = Dataset::open(&out).unwrap().sequence("train").unwrap();
+    assert_eq!(s.len(), 6);
+    // JPEG frames are written as PNG, in frame order.
+    let red: Vec<u8> = (0..6)
+        .map(|i| s.load_rgb(i).unwrap().get_pixel(4, 3)[0])
+        .collect();
+    assert!(red.windows(2).all(|w| w[0] < w[1]), "{red:?}");
+}

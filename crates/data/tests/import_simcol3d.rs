@@ -107,6 +107,7 @@ fn config() -> SimCol3dConfig {
         fps: 20.0,
         sequence: None,
         depth: true,
+        cam_txt: true,
     }
 }
 
@@ -349,4 +350,110 @@ fn depth_on_some_frames_only_is_an_error_unless_depth_is_off() {
     .unwrap_err()
     .to_string();
     assert!(m.contains("Depth_0001.png"), "{m}");
+}
+
+/// The published layout keeps every pose line; a copy may keep only every 4th frame
+/// (`FrameBuffer_0000.png`, `FrameBuffer_0004.png`, …). Each image takes the pose line of its
+/// number, and its time stamp is its number / fps.
+#[test]
+fn a_subsampled_frames_folder_pairs_images_with_pose_lines_by_number() {
+    let tmp = tempfile::tempdir().unwrap();
+    let colon = tmp.path().join("SyntheticColon_I");
+    let truth = fixture(&colon, 12);
+    for i in (0..12).filter(|i| i % 4 != 0) {
+        std::fs::remove_file(colon.join(format!("Frames_S1/FrameBuffer_{i:04}.png"))).unwrap();
+    }
+    let seq = read_simcol3d(&colon, &config()).unwrap();
+    assert_eq!(seq.frames.len(), 3);
+    for (frame, n) in seq.frames.iter().zip([0usize, 4, 8]) {
+        assert!(frame.image.ends_with(format!("FrameBuffer_{n:04}.png")));
+        let t = truth[n].0;
+        let expect = Vector3::new(10.0 * t.x, -10.0 * t.y, 10.0 * t.z);
+        assert!(
+            (frame.pose.pose.translation.vector - expect).norm() < 1e-9,
+            "frame {n}"
+        );
+        assert!((frame.pose.timestamp_s - n as f64 / 20.0).abs() < 1e-12);
+    }
+    assert!(
+        seq.notes
+            .iter()
+            .any(|n| n.contains("3 of 12 pose lines have an image")),
+        "{:?}",
+        seq.notes
+    );
+
+    // An image beyond the pose lines names itself and the pose file.
+    let img = image::RgbaImage::from_pixel(8, 6, image::Rgba([0, 0, 0, 255]));
+    img.save(colon.join("Frames_S1/FrameBuffer_0012.png"))
+        .unwrap();
+    let m = read_simcol3d(&colon, &config()).unwrap_err().to_string();
+    assert!(
+        m.contains("SavedPosition_S1.txt")
+            && m.contains("FrameBuffer_0012.png is frame 12")
+            && m.contains("12 pose lines (frames 0-11)"),
+        "{m}"
+    );
+}
+
+/// `cam.txt` in the colon folder gives the focal length (its first value); the principal
+/// point stays the configured one; a malformed file is named with its line.
+#[test]
+fn cam_txt_gives_the_focal_length_and_bad_ones_are_named() {
+    let tmp = tempfile::tempdir().unwrap();
+    let colon = tmp.path().join("SyntheticColon_I");
+    fixture(&colon, 2);
+    std::fs::write(colon.join("cam.txt"), "5.5 0 5.5 0 3 3 0 0 1\n").unwrap();
+    for src in [colon.clone(), colon.join("Frames_S1")] {
+        let seq = read_simcol3d(&src, &config()).unwrap();
+        assert_eq!((seq.camera.fx, seq.camera.fy), (5.5, 5.5));
+        assert_eq!((seq.camera.cx, seq.camera.cy), (3.5, 2.5));
+        assert!(
+            seq.notes.iter().any(|n| n.contains("cam.txt")),
+            "{:?}",
+            seq.notes
+        );
+    }
+    // An explicit camera keeps its own focal length.
+    let explicit = SimCol3dConfig {
+        cam_txt: false,
+        ..config()
+    };
+    assert_eq!(read_simcol3d(&colon, &explicit).unwrap().camera, camera());
+
+    std::fs::write(colon.join("cam.txt"), "227.6 0 227.6\n").unwrap();
+    let m = read_simcol3d(&colon, &config()).unwrap_err().to_string();
+    assert!(
+        m.contains("cam.txt:1") && m.contains("expected 9 values"),
+        "{m}"
+    );
+    std::fs::write(colon.join("cam.txt"), "-1 0 0 0 1 0 0 0 1\n").unwrap();
+    let m = read_simcol3d(&colon, &config()).unwrap_err().to_string();
+    assert!(m.contains("cam.txt:1") && m.contains("positive"), "{m}");
+}
+
+/// The dataset's root folder (`misc/`, `SyntheticColon_I`, …) is refused with the colon
+/// folders it holds.
+#[test]
+fn the_dataset_root_names_its_colon_folders() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path().join("SimCol3D");
+    fixture(&root.join("SyntheticColon_I"), 1);
+    std::fs::create_dir_all(root.join("SyntheticColon_II")).unwrap();
+    std::fs::create_dir_all(root.join("misc")).unwrap();
+    let m = read_simcol3d(&root, &config()).unwrap_err().to_string();
+    assert!(
+        m.contains("SimCol3D dataset folder")
+            && m.contains("SyntheticColon_I, SyntheticColon_II")
+            && m.contains("--sequence S1"),
+        "{m}"
+    );
+    // Its colon folder imports.
+    assert_eq!(
+        read_simcol3d(&root.join("SyntheticColon_I"), &config())
+            .unwrap()
+            .frames
+            .len(),
+        1
+    );
 }

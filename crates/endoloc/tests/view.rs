@@ -61,10 +61,7 @@ fn fake_run(root: &Path, with_gt: bool) -> PathBuf {
     std::fs::create_dir_all(&model).unwrap();
     write_tum(&model.join("train_poses.txt"), &poses).unwrap();
     let plain: Vec<Pose> = poses.iter().map(|p| p.pose).collect();
-    let config = ZoneConfig::Uniform {
-        count: ZONES,
-        by: UniformBy::Frames,
-    };
+    let config = ZoneConfig::uniform(ZONES, UniformBy::Frames);
     let table = ZoneTable::from_poses(&plain, None, &config).unwrap();
     table.save(&model.join("zones.csv")).unwrap();
     let zones = (0..ZONES)
@@ -85,6 +82,7 @@ fn fake_run(root: &Path, with_gt: bool) -> PathBuf {
                 })
                 .collect(),
             rejected_tracks: 0,
+            keypoints: 0,
         })
         .collect();
     let map = Map {

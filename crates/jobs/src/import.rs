@@ -191,6 +191,7 @@ impl ImportJob {
                     fps: self.fps,
                     sequence: self.sequence.clone(),
                     depth: self.depth,
+                    cam_txt: self.camera.is_none(),
                     ..SimCol3dConfig::default()
                 };
                 if let Some(c) = camera(false) {

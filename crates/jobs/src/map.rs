@@ -113,21 +113,18 @@ impl MapJob {
             write_zone_ply(z, &ply_dir.join(format!("zone_{:03}.ply", z.zone)))?;
         }
         write_colmap_text(&map, &train, &self.model.join("map_colmap"))?;
-        for z in &summary.empty_zones {
+        for &z in &summary.empty_zones {
             let frames = classifier
                 .zones()
-                .zone_of_frame
-                .iter()
-                .filter(|&&f| f == *z)
-                .count();
-            let cause = if frames < 2 {
-                format!("it holds {frames} training frame(s): use fewer zones")
-            } else {
-                "its images are textureless or too few features matched".to_string()
-            };
-            progress.note(&format!(
-                "warning: zone {z} has no map point ({cause}); its frames will be init_only"
-            ));
+                .zones
+                .get(z)
+                .map_or(0, |zone| zone.frame_count);
+            if let Some(zone_map) = map.zones.get(z) {
+                let cause = empty_zone_cause(frames, zone_map);
+                progress.note(&format!(
+                    "warning: zone {z} has no map point: {cause}; its frames will be init_only"
+                ));
+            }
         }
         Ok(MapReport {
             summary,
@@ -135,6 +132,44 @@ impl MapJob {
             seconds: t.elapsed().as_secs_f64(),
         })
     }
+}
+
+/// Mean SURF keypoints per map image below which a zone's images count as textureless.
+const TEXTURELESS_KEYPOINTS_PER_IMAGE: usize = 10;
+
+/// Why a zone got no map point, for the user: the frames the zone holds (one frame gives no
+/// second view to triangulate from: the scope moved fast there), its texture (few SURF
+/// keypoints), or features that were found but not tracked and triangulated.
+/// `frames` is the number of training frames in the zone.
+pub fn empty_zone_cause(frames: usize, zone: &endoloc_localize::ZoneMap) -> String {
+    let images = zone.frames.len();
+    if frames < 2 {
+        return format!(
+            "it holds {frames} training frame (the scope moved fast there), and a map point \
+             needs two views; train with fewer zones or a larger --min-zone-frames"
+        );
+    }
+    let per_image = zone.keypoints / images.max(1);
+    if per_image < TEXTURELESS_KEYPOINTS_PER_IMAGE {
+        return format!(
+            "its {images} map images (of {frames} training frames) have {} SURF keypoints in \
+             all, {per_image} per image: the zone is textureless (or dark, or blurred); a lower \
+             map --threshold finds more",
+            zone.keypoints
+        );
+    }
+    format!(
+        "its {images} map images (of {frames} training frames) have {} SURF keypoints, but none \
+         was matched across images and triangulated ({} tracks rejected): too little overlap \
+         or parallax between its frames{}",
+        zone.keypoints,
+        zone.rejected_tracks,
+        if frames < 3 {
+            "; it holds only 2 training frames, train with a larger --min-zone-frames"
+        } else {
+            ""
+        }
+    )
 }
 
 impl fmt::Display for MapReport {
@@ -156,6 +191,44 @@ impl fmt::Display for MapReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn zone_map(images: usize, keypoints: usize, rejected: usize) -> endoloc_localize::ZoneMap {
+        endoloc_localize::ZoneMap {
+            zone: 16,
+            frames: (0..images).collect(),
+            keypoints,
+            rejected_tracks: rejected,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn an_empty_zone_names_its_real_cause() {
+        // One frame: no second view, whatever the texture.
+        let c = empty_zone_cause(1, &zone_map(1, 400, 0));
+        assert!(
+            c.contains("holds 1 training frame") && c.contains("moved fast"),
+            "{c}"
+        );
+        assert!(!c.contains("textureless"), "{c}");
+        // Enough frames, few keypoints: texture.
+        let c = empty_zone_cause(40, &zone_map(8, 20, 0));
+        assert!(
+            c.contains("textureless") && c.contains("20 SURF keypoints"),
+            "{c}"
+        );
+        assert!(c.contains("8 map images (of 40 training frames)"), "{c}");
+        // Keypoints but no track: overlap; two frames are named as the likely cause.
+        let c = empty_zone_cause(2, &zone_map(2, 900, 3));
+        assert!(
+            c.contains("900 SURF keypoints") && c.contains("3 tracks rejected"),
+            "{c}"
+        );
+        assert!(
+            c.contains("only 2 training frames") && !c.contains("textureless"),
+            "{c}"
+        );
+    }
 
     #[test]
     fn defaults_are_the_library_defaults() {

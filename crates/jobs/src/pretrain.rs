@@ -244,10 +244,7 @@ impl PretrainJob {
         // saw (train with 0 epochs from the weights, then classify).
         cfg.validation.holdout_every = 0;
         cfg.validate()?;
-        let zones = ZoneConfig::Uniform {
-            count: self.zones,
-            by: UniformBy::ArcLength,
-        };
+        let zones = ZoneConfig::uniform(self.zones, UniformBy::ArcLength);
         progress.note(&format!(
             "\n== joint training: {} colons at once, {} epochs of {} pairs → {}",
             colons.len(),

@@ -186,6 +186,7 @@ impl SimulateJob {
         }
         let on_event = |event: endoloc_sim::Progress<'_>| match event {
             endoloc_sim::Progress::Stage(stage) => progress.note(&format!("preparing {stage}…")),
+            endoloc_sim::Progress::Note(note) => progress.note(note),
             endoloc_sim::Progress::SequenceStarted { name, frames } => {
                 progress.start(name, frames as u64)
             }
@@ -209,6 +210,9 @@ impl fmt::Display for SimulateReport {
         let s = &self.summary;
         writeln!(f, "dataset   {}", s.dataset.display())?;
         writeln!(f, "colon     {}", s.colon)?;
+        for note in &s.notes {
+            writeln!(f, "note      {note}")?;
+        }
         for (name, frames) in &s.sequences {
             writeln!(f, "sequence  {name}: {frames} frames")?;
         }

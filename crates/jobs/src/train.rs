@@ -49,6 +49,9 @@ pub struct TrainJob {
     pub zones: String,
     /// Uniform zones of equal `arc-length` or equal `frames`.
     pub uniform_by: String,
+    /// Fewest training frames a uniform zone holds: a zone over a fast stretch of the pass is
+    /// widened into its neighbours until it has this many (its map needs several views).
+    pub min_zone_frames: usize,
     /// Model folder to write.
     pub out: PathBuf,
     /// Replace an existing model folder (or discard an interrupted run).
@@ -109,6 +112,7 @@ impl Default for TrainJob {
             also_seq: Vec::new(),
             zones: "50".into(),
             uniform_by: "arc-length".into(),
+            min_zone_frames: endoloc_net::DEFAULT_MIN_ZONE_FRAMES,
             out: PathBuf::new(),
             force: false,
             resume: false,
@@ -162,6 +166,9 @@ pub struct SiameseReport {
     pub zones: usize,
     /// Frames zoned.
     pub zone_frames: usize,
+    /// Zones widened over fast stretches, or too short for `min_zone_frames`
+    /// ([`ZoneTable::frames_note`]).
+    pub zone_note: Option<String>,
     /// Validation sequence (`None`: held-out training frames).
     pub validation_sequence: Option<PathBuf>,
     /// Further passes joined to the pairs.
@@ -170,12 +177,12 @@ pub struct SiameseReport {
     pub seconds: f64,
 }
 
-/// Parses a zone spec: a number (uniform zones, `by` = `arc-length` or `frames`), `expert`
-/// or `expert:N` (anatomical, N zones, default 50).
+/// Parses a zone spec: a number (uniform zones, `by` = `arc-length` or `frames`, at least
+/// `min_frames` frames each), `expert` or `expert:N` (anatomical, N zones, default 50).
 ///
 /// # Errors
 /// A spec or `by` that is none of these.
-pub fn zone_config(spec: &str, by: &str) -> Result<ZoneConfig> {
+pub fn zone_config(spec: &str, by: &str, min_frames: usize) -> Result<ZoneConfig> {
     let s = spec.trim().to_ascii_lowercase();
     if let Some(rest) = s.strip_prefix("expert") {
         let count = match rest.strip_prefix(':') {
@@ -193,6 +200,7 @@ pub fn zone_config(spec: &str, by: &str) -> Result<ZoneConfig> {
     Ok(ZoneConfig::Uniform {
         count,
         by: by.parse::<UniformBy>()?,
+        min_frames,
     })
 }
 
@@ -377,10 +385,14 @@ impl TrainJob {
             });
         }
         let cfg = self.train_config()?;
-        let zcfg = zone_config(&args.zones, &args.uniform_by)?;
+        let zcfg = zone_config(&args.zones, &args.uniform_by, args.min_zone_frames)?;
         let dataset = Dataset::open(&args.data)?;
         let seq = dataset.sequence(&args.seq)?;
         let zones = ZoneTable::from_sequence(&seq, &zcfg)?;
+        let zone_note = zones.frames_note();
+        if let Some(note) = &zone_note {
+            progress.note(&format!("zones: {note}"));
+        }
         let mut cfg = cfg;
         for name in &args.also_seq {
             if *name == args.seq {
@@ -429,6 +441,7 @@ impl TrainJob {
         Ok(TrainReport::Siamese(Box::new(SiameseReport {
             zones: zones.len(),
             zone_frames: zones.frame_count(),
+            zone_note,
             validation_sequence: cfg.validation.sequence.clone(),
             extra_sequences: cfg.extra_sequences.clone(),
             seconds: t0.elapsed().as_secs_f64(),
@@ -460,6 +473,9 @@ impl fmt::Display for TrainReport {
         }
         writeln!(f, "model        {}", report.model_dir.display())?;
         writeln!(f, "zones        {} ({} frames)", r.zones, r.zone_frames)?;
+        if let Some(note) = &r.zone_note {
+            writeln!(f, "zone note    {note}")?;
+        }
         for (dir, n) in r.extra_sequences.iter().zip(&report.pass_frames) {
             writeln!(
                 f,
@@ -650,10 +666,12 @@ mod tests {
     #[test]
     fn zone_specs_parse_and_bad_ones_are_named() {
         assert_eq!(
-            zone_config("expert:30", "arc-length").unwrap(),
+            zone_config("expert:30", "arc-length", 3).unwrap(),
             ZoneConfig::Expert { count: 30 }
         );
-        let e = zone_config("many", "arc-length").unwrap_err().to_string();
+        let e = zone_config("many", "arc-length", 3)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--zones many"), "{e}");
     }
 }

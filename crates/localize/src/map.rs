@@ -109,6 +109,9 @@ pub struct ZoneMap {
     pub points: Vec<MapPoint>,
     /// Tracks that failed triangulation or `δr`.
     pub rejected_tracks: usize,
+    /// SURF keypoints detected over the zone's images (a textureless zone has few). Not
+    /// stored in `map.bin`: 0 for a loaded map.
+    pub keypoints: usize,
 }
 
 /// All zone maps of a model.
@@ -349,6 +352,7 @@ fn build_zone_map(
         frames: frames.to_vec(),
         points,
         rejected_tracks: rejected,
+        keypoints: total,
     })
 }
 

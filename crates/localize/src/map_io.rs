@@ -156,6 +156,7 @@ pub fn load_map(dir: &Path) -> Result<Map, LocalizeError> {
             frames,
             points,
             rejected_tracks: 0,
+            keypoints: 0,
         });
     }
     Ok(Map {

@@ -18,14 +18,8 @@ fn simulated_map() -> (tempfile::TempDir, endoloc_localize::Map, Dataset) {
     endoloc_sim::simulate(&cfg, &out, false, &|_| {}).unwrap();
     let ds = Dataset::open(&out).unwrap();
     let train = ds.sequence("train").unwrap();
-    let zones = ZoneTable::from_sequence(
-        &train,
-        &ZoneConfig::Uniform {
-            count: 20,
-            by: UniformBy::ArcLength,
-        },
-    )
-    .unwrap();
+    let zones =
+        ZoneTable::from_sequence(&train, &ZoneConfig::uniform(20, UniformBy::ArcLength)).unwrap();
     let mut map_cfg = MapConfig {
         images_per_zone: 8,
         ..MapConfig::default()

@@ -54,14 +54,8 @@ fn make_fixture() -> Fixture {
     endoloc_sim::simulate(&cfg, &out, false, &|_| {}).unwrap();
     let ds = Dataset::open(&out).unwrap();
     let train = ds.sequence("train").unwrap();
-    let zones = ZoneTable::from_sequence(
-        &train,
-        &ZoneConfig::Uniform {
-            count: ZONES,
-            by: UniformBy::ArcLength,
-        },
-    )
-    .unwrap();
+    let zones = ZoneTable::from_sequence(&train, &ZoneConfig::uniform(ZONES, UniformBy::ArcLength))
+        .unwrap();
     let mut map_cfg = MapConfig::default();
     map_cfg.surf.threshold = 50.0;
     let map = build_map(&train, &zones, &ds.meta.camera, &map_cfg, &|_| {}).unwrap();
@@ -96,10 +90,7 @@ fn localizer(f: &Fixture, cfg: LocalizerConfig) -> Localizer {
         score: ScoreRule::Nearest,
         camera: f.ds.meta.camera,
         backbone,
-        zones: ZoneConfig::Uniform {
-            count: ZONES,
-            by: UniformBy::ArcLength,
-        },
+        zones: ZoneConfig::uniform(ZONES, UniformBy::ArcLength),
         temporal: TemporalConfig::default(),
         track: Default::default(),
         whitening: None,

@@ -48,10 +48,7 @@ fn classifier_with(whiten: bool) -> ZoneClassifier {
     let poses: Vec<_> = (0..FRAMES)
         .map(|i| pose_from_parts(Vector3::new(i as f64, 0.0, 0.0), UnitQuaternion::identity()))
         .collect();
-    let zcfg = ZoneConfig::Uniform {
-        count: ZONES,
-        by: UniformBy::Frames,
-    };
+    let zcfg = ZoneConfig::uniform(ZONES, UniformBy::Frames);
     let zones = ZoneTable::from_poses(&poses, None, &zcfg).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(2);
     let dim = backbone.descriptor_dim();

@@ -103,6 +103,7 @@ pub fn joint_cache(
         config: *zones,
         zones: Vec::new(),
         zone_of_frame: Vec::new(),
+        widened: Vec::new(),
     };
     let mut counts = Vec::with_capacity(colons.len());
     for (c, colon) in colons.iter().enumerate() {

@@ -6,8 +6,13 @@
 //!   Arc length is the default because it gives zones of the same physical extent whatever the
 //!   scope's speed: a pause of the scope (a second at one place) does not become a zone of its
 //!   own, and a fast stretch is not lumped into one zone. Boundaries fall on the first frame
-//!   whose cumulative path length reaches `k · L / count`; every zone keeps at least one frame.
-//!   A path of zero length falls back to equal frame counts.
+//!   whose cumulative path length reaches `k · L / count`. A zone over a fast stretch can then
+//!   hold a frame or two, too few for its map (triangulation needs views from several
+//!   frames): every zone keeps at least `min_frames` frames (default
+//!   [`DEFAULT_MIN_ZONE_FRAMES`]), its bounds moved as little as needed into its neighbours
+//!   (listed in [`ZoneTable::widened`]). A pass with fewer than `count · min_frames` frames
+//!   gives each zone `frames / count` at least. A path of zero length falls back to equal frame
+//!   counts.
 //! - **Expert** ([`ZoneConfig::Expert`]): one zone per anatomical section of `sections.csv`
 //!   (each contiguous run of one label along the trajectory; runs shorter than
 //!   [`MIN_SECTION_RUN_FRAMES`] are merged into the run before them), then the remaining
@@ -33,6 +38,14 @@ use std::path::{Path, PathBuf};
 /// Runs of one section label shorter than this (frames) are merged into the previous run
 /// (label flicker at a boundary, a scope jiggling across it).
 pub const MIN_SECTION_RUN_FRAMES: usize = 5;
+
+/// Fewest training frames a uniform zone holds by default ([`ZoneConfig::Uniform`]'s
+/// `min_frames`): a zone's map triangulates features seen in several of its frames.
+pub const DEFAULT_MIN_ZONE_FRAMES: usize = 3;
+
+fn default_min_frames() -> usize {
+    DEFAULT_MIN_ZONE_FRAMES
+}
 
 /// File name of the zone table in a model folder.
 pub const ZONES_FILE: &str = "zones.csv";
@@ -72,6 +85,10 @@ pub enum ZoneConfig {
         /// Equal arc length (default) or equal frame counts.
         #[serde(default)]
         by: UniformBy,
+        /// Fewest frames a zone holds (default [`DEFAULT_MIN_ZONE_FRAMES`]): a zone over a
+        /// fast stretch takes frames from its neighbours until it has this many.
+        #[serde(default = "default_min_frames")]
+        min_frames: usize,
     },
     /// One zone per anatomical section, long sections split so that there are `count` zones
     /// in all (the paper: 13 sections, 50 zones). Needs `sections.csv`.
@@ -82,16 +99,23 @@ pub enum ZoneConfig {
 }
 
 impl Default for ZoneConfig {
-    /// 50 uniform zones of equal arc length.
+    /// 50 uniform zones of equal arc length, at least [`DEFAULT_MIN_ZONE_FRAMES`] frames each.
     fn default() -> Self {
-        ZoneConfig::Uniform {
-            count: 50,
-            by: UniformBy::ArcLength,
-        }
+        ZoneConfig::uniform(50, UniformBy::ArcLength)
     }
 }
 
 impl ZoneConfig {
+    /// `count` uniform zones cut `by` arc length or frames, at least
+    /// [`DEFAULT_MIN_ZONE_FRAMES`] frames each.
+    pub fn uniform(count: usize, by: UniformBy) -> Self {
+        ZoneConfig::Uniform {
+            count,
+            by,
+            min_frames: DEFAULT_MIN_ZONE_FRAMES,
+        }
+    }
+
     /// The number of zones asked for.
     pub fn count(&self) -> usize {
         match *self {
@@ -137,6 +161,10 @@ pub struct ZoneTable {
     pub zones: Vec<Zone>,
     /// Zone index of each training frame.
     pub zone_of_frame: Vec<usize>,
+    /// Uniform zones that held fewer than `min_frames` frames at equal arc length (a fast
+    /// stretch of the pass) and were widened into their neighbours to hold `min_frames`. Not
+    /// stored in `zones.csv`: empty for a loaded table.
+    pub widened: Vec<usize>,
 }
 
 /// Cumulative camera path length (mm) at each frame; `s[0] = 0`.
@@ -180,6 +208,45 @@ fn arc_length_starts(s: &[f64], k: usize) -> Vec<usize> {
         starts.push(frame.clamp(lo, hi));
     }
     starts
+}
+
+/// Moves zone starts (`starts[0] == 0`, strictly increasing, within `0..n`) so that every
+/// zone holds at least `m` frames (`k · m ≤ n` required), as little as possible in the least
+/// squares sense: with `u_j = start_j − j·m` the constraint is `u` non-decreasing within
+/// `0..=n − k·m`, so `u` is the isotonic regression (pool-adjacent-violators) of the current
+/// starts, clamped and rounded. Starts that already satisfy the constraint do not move.
+/// Returns the zones that held fewer than `m` frames before.
+fn widen_short_zones(starts: &mut [usize], n: usize, m: usize) -> Vec<usize> {
+    let k = starts.len();
+    let size = |s: &[usize], j: usize| s.get(j + 1).copied().unwrap_or(n) - s[j];
+    let short: Vec<usize> = (0..k).filter(|&j| size(starts, j) < m).collect();
+    if short.is_empty() || k * m > n {
+        return Vec::new();
+    }
+    // Pool adjacent violators over u_j = start_j − j·m (blocks of (sum, count)).
+    let mut blocks: Vec<(f64, usize)> = Vec::with_capacity(k);
+    for (j, &s) in starts.iter().enumerate() {
+        blocks.push((s as f64 - (j * m) as f64, 1));
+        while blocks.len() >= 2 {
+            let (b, a) = (blocks[blocks.len() - 1], blocks[blocks.len() - 2]);
+            if a.0 / a.1 as f64 <= b.0 / b.1 as f64 {
+                break;
+            }
+            blocks.pop();
+            let last = blocks.len() - 1;
+            blocks[last] = (a.0 + b.0, a.1 + b.1);
+        }
+    }
+    let hi = (n - k * m) as f64;
+    let mut j = 0;
+    for (sum, count) in blocks {
+        let u = (sum / count as f64).clamp(0.0, hi).round() as usize;
+        for _ in 0..count {
+            starts[j] = if j == 0 { 0 } else { u + j * m };
+            j += 1;
+        }
+    }
+    short
 }
 
 /// Contiguous runs of one label: `(label, first, last_inclusive)`, runs shorter than
@@ -304,12 +371,15 @@ impl ZoneTable {
         }
         // (first frame, section) of each zone.
         let mut starts: Vec<(usize, Option<Section>)> = Vec::with_capacity(count);
+        let mut widened = Vec::new();
         match *config {
-            ZoneConfig::Uniform { by, .. } => {
-                let firsts = match by {
+            ZoneConfig::Uniform { by, min_frames, .. } => {
+                let mut firsts = match by {
                     UniformBy::Frames => equal_frame_starts(0, n, count),
                     UniformBy::ArcLength => arc_length_starts(&s, count),
                 };
+                let m = min_frames.min(n / count).max(1);
+                widened = widen_short_zones(&mut firsts, n, m);
                 starts.extend(firsts.into_iter().map(|f| (f, None)));
             }
             ZoneConfig::Expert { .. } => {
@@ -359,7 +429,44 @@ impl ZoneTable {
             config: *config,
             zones,
             zone_of_frame,
+            widened,
         })
+    }
+
+    /// A line for the user when uniform zones had to depart from their rule for lack of
+    /// frames: the zones [`ZoneTable::widened`] to hold `min_frames`, and zones that still hold
+    /// fewer (a pass with fewer than `count · min_frames` frames). `None` when neither happened.
+    pub fn frames_note(&self) -> Option<String> {
+        let ZoneConfig::Uniform { min_frames, .. } = self.config else {
+            return None;
+        };
+        let mut parts = Vec::new();
+        if !self.widened.is_empty() {
+            parts.push(format!(
+                "{} zone(s) ({}) held fewer than {min_frames} training frames at equal arc length \
+                 (the scope moved fast there) and were widened into their neighbours",
+                self.widened.len(),
+                index_ranges(&self.widened)
+            ));
+        }
+        let short: Vec<usize> = self
+            .zones
+            .iter()
+            .filter(|z| z.frame_count < min_frames)
+            .map(|z| z.index)
+            .collect();
+        if !short.is_empty() {
+            parts.push(format!(
+                "{} zone(s) ({}) hold fewer than {min_frames} frames: {} training frames are too \
+                 few for {} zones of {min_frames}; ask for at most {} zones",
+                short.len(),
+                index_ranges(&short),
+                self.frame_count(),
+                self.len(),
+                self.frame_count() / min_frames.max(1)
+            ));
+        }
+        (!parts.is_empty()).then(|| parts.join("; "))
     }
 
     /// Number of zones.
@@ -558,6 +665,7 @@ impl ZoneTable {
             config,
             zones,
             zone_of_frame,
+            widened: Vec::new(),
         })
     }
 }
@@ -588,6 +696,25 @@ pub fn nearest_frame(
 
 const ZONES_HEADER: &str =
     "zone,first_frame,last_frame,frame_count,path_length_mm,section,tx,ty,tz,qx,qy,qz,qw";
+
+/// Sorted indices as ranges: `[3, 4, 5, 9]` → `"3–5, 9"`.
+fn index_ranges(v: &[usize]) -> String {
+    let mut out: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < v.len() {
+        let mut j = i;
+        while j + 1 < v.len() && v[j + 1] == v[j] + 1 {
+            j += 1;
+        }
+        out.push(if j > i {
+            format!("{}–{}", v[i], v[j])
+        } else {
+            v[i].to_string()
+        });
+        i = j + 1;
+    }
+    out.join(", ")
+}
 
 /// The most frequent label (ties: the earliest in insertion order).
 fn majority(labels: &[Section]) -> Option<Section> {
@@ -636,10 +763,7 @@ mod tests {
     #[test]
     fn uniform_frames_are_equal_within_one() {
         let poses = straight(103, |_| 1.0);
-        let cfg = ZoneConfig::Uniform {
-            count: 10,
-            by: UniformBy::Frames,
-        };
+        let cfg = ZoneConfig::uniform(10, UniformBy::Frames);
         let t = ZoneTable::from_poses(&poses, None, &cfg).unwrap();
         check_tiling(&t, 103);
         assert_eq!(t.len(), 10);
@@ -657,10 +781,7 @@ mod tests {
         // First 50 frames move 0.1 mm each (slow), last 50 move 1.9 mm each (fast): total
         // 4.9 + 95 = 99.9 mm. Two zones of equal length split near 50 mm, i.e. in the fast part.
         let poses = straight(100, |i| if i < 50 { 0.1 } else { 1.9 });
-        let cfg = ZoneConfig::Uniform {
-            count: 2,
-            by: UniformBy::ArcLength,
-        };
+        let cfg = ZoneConfig::uniform(2, UniformBy::ArcLength);
         let t = ZoneTable::from_poses(&poses, None, &cfg).unwrap();
         check_tiling(&t, 100);
         let split = t.zones[1].first_frame;
@@ -670,27 +791,92 @@ mod tests {
     }
 
     #[test]
+    fn zones_over_a_fast_stretch_are_widened_to_min_frames() {
+        // 150 frames at 1 mm, then 4 frames at 12 mm (a fast stretch), then 150 at 1 mm:
+        // 349 mm in 50 zones of 7 mm; over the fast stretch zones hold one frame each.
+        let poses = straight(304, |i| if (150..154).contains(&i) { 12.0 } else { 1.0 });
+        let plain = ZoneTable::from_poses(
+            &poses,
+            None,
+            &ZoneConfig::Uniform {
+                count: 50,
+                by: UniformBy::ArcLength,
+                min_frames: 1,
+            },
+        )
+        .unwrap();
+        let single = plain.zones.iter().filter(|z| z.frame_count == 1).count();
+        assert!(single >= 4, "{single} one-frame zones without the minimum");
+        assert!(plain.widened.is_empty() && plain.frames_note().is_none());
+
+        let t = ZoneTable::from_poses(&poses, None, &ZoneConfig::uniform(50, UniformBy::ArcLength))
+            .unwrap();
+        check_tiling(&t, 304);
+        assert_eq!(t.len(), 50);
+        assert!(
+            t.zones.iter().all(|z| z.frame_count >= 3),
+            "{:?}",
+            t.zones.iter().map(|z| z.frame_count).collect::<Vec<_>>()
+        );
+        // The widened zones are those over the fast stretch, and the note names them.
+        assert!(!t.widened.is_empty());
+        for &k in &t.widened {
+            assert!(plain.zones[k].frame_count < 3, "zone {k} was not short");
+        }
+        let note = t.frames_note().unwrap();
+        assert!(
+            note.contains("fewer than 3 training frames") && note.contains("moved fast"),
+            "{note}"
+        );
+        // Zones away from the fast stretch keep their equal-arc-length bounds.
+        assert_eq!(t.zones[..15], plain.zones[..15]);
+        assert_eq!(t.zones[35..], plain.zones[35..]);
+    }
+
+    #[test]
+    fn too_few_frames_for_min_frames_zones_is_reported() {
+        let poses = straight(40, |_| 1.0);
+        let t = ZoneTable::from_poses(&poses, None, &ZoneConfig::uniform(20, UniformBy::ArcLength))
+            .unwrap();
+        check_tiling(&t, 40);
+        assert!(t.zones.iter().all(|z| z.frame_count == 2));
+        let note = t.frames_note().unwrap();
+        assert!(
+            note.contains("40 training frames are too few for 20 zones of 3"),
+            "{note}"
+        );
+        assert!(note.contains("ask for at most 13 zones"), "{note}");
+    }
+
+    #[test]
+    fn a_zone_config_without_min_frames_reads_with_the_default() {
+        let c: ZoneConfig =
+            serde_json::from_str(r#"{"kind":"uniform","count":50,"by":"arc_length"}"#).unwrap();
+        assert_eq!(c, ZoneConfig::uniform(50, UniformBy::ArcLength));
+        assert_eq!(
+            ZoneConfig::default(),
+            ZoneConfig::Uniform {
+                count: 50,
+                by: UniformBy::ArcLength,
+                min_frames: 3
+            }
+        );
+    }
+
+    #[test]
     fn as_many_zones_as_frames_and_more_is_a_clear_error() {
         let poses = straight(7, |_| 1.0);
         for by in [UniformBy::Frames, UniformBy::ArcLength] {
-            let t =
-                ZoneTable::from_poses(&poses, None, &ZoneConfig::Uniform { count: 7, by }).unwrap();
+            let t = ZoneTable::from_poses(&poses, None, &ZoneConfig::uniform(7, by)).unwrap();
             check_tiling(&t, 7);
             assert!(t.zones.iter().all(|z| z.frame_count == 1));
-            let err = ZoneTable::from_poses(&poses, None, &ZoneConfig::Uniform { count: 8, by })
+            let err = ZoneTable::from_poses(&poses, None, &ZoneConfig::uniform(8, by))
                 .unwrap_err()
                 .to_string();
             assert!(err.contains("8 zones") && err.contains("has 7"), "{err}");
         }
-        let err = ZoneTable::from_poses(
-            &poses,
-            None,
-            &ZoneConfig::Uniform {
-                count: 0,
-                by: UniformBy::Frames,
-            },
-        )
-        .unwrap_err();
+        let err = ZoneTable::from_poses(&poses, None, &ZoneConfig::uniform(0, UniformBy::Frames))
+            .unwrap_err();
         assert!(err.to_string().contains("at least 1"));
     }
 
@@ -698,27 +884,13 @@ mod tests {
     fn arc_length_keeps_every_zone_non_empty_with_a_jump_and_a_still_camera() {
         // One huge jump between frames 4 and 5: several equal-length zones would be empty.
         let poses = straight(10, |i| if i == 5 { 1000.0 } else { 1.0 });
-        let t = ZoneTable::from_poses(
-            &poses,
-            None,
-            &ZoneConfig::Uniform {
-                count: 6,
-                by: UniformBy::ArcLength,
-            },
-        )
-        .unwrap();
+        let t = ZoneTable::from_poses(&poses, None, &ZoneConfig::uniform(6, UniformBy::ArcLength))
+            .unwrap();
         check_tiling(&t, 10);
         // A camera that never moves: equal frame counts.
         let still = straight(12, |_| 0.0);
-        let t = ZoneTable::from_poses(
-            &still,
-            None,
-            &ZoneConfig::Uniform {
-                count: 4,
-                by: UniformBy::ArcLength,
-            },
-        )
-        .unwrap();
+        let t = ZoneTable::from_poses(&still, None, &ZoneConfig::uniform(4, UniformBy::ArcLength))
+            .unwrap();
         assert!(t.zones.iter().all(|z| z.frame_count == 3));
     }
 

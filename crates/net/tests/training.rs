@@ -136,14 +136,7 @@ fn train_into(
 }
 
 fn zones_of(seq: &Sequence) -> ZoneTable {
-    ZoneTable::from_sequence(
-        seq,
-        &ZoneConfig::Uniform {
-            count: ZONES,
-            by: UniformBy::Frames,
-        },
-    )
-    .unwrap()
+    ZoneTable::from_sequence(seq, &ZoneConfig::uniform(ZONES, UniformBy::Frames)).unwrap()
 }
 
 #[test]
@@ -613,10 +606,7 @@ fn joint_pretraining_trains_on_every_colon_at_once_and_its_weights_transfer() {
         }
     };
     let colons = vec![colon("a", 20), colon("b", 30)];
-    let zcfg = ZoneConfig::Uniform {
-        count: ZONES,
-        by: UniformBy::Frames,
-    };
+    let zcfg = ZoneConfig::uniform(ZONES, UniformBy::Frames);
     let cfg = TrainConfig {
         pairs: PairRule::Track {
             positive_frames: 1,

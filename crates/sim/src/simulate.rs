@@ -18,6 +18,9 @@ use crate::trajectory::{Pass, PassGenerator};
 pub enum Progress<'a> {
     /// A preparation stage started (colon, texture, passes).
     Stage(&'a str),
+    /// Something the user should know about the colon model (see [`ColonModel::notes`]):
+    /// a missing landmark and where it was placed, where the pass stops short of the appendix.
+    Note(&'a str),
     /// Rendering of a sequence started, with its frame count.
     SequenceStarted {
         /// The sequence's name (its folder in the dataset).
@@ -36,6 +39,8 @@ pub struct SimSummary {
     pub dataset: PathBuf,
     /// Description of the colon model.
     pub colon: String,
+    /// What the colon model had to assume ([`ColonModel::notes`]).
+    pub notes: Vec<String>,
     /// Mid-line length, mm.
     pub colon_length_mm: f64,
     /// Frames per sequence, `(name, frames)`.
@@ -96,6 +101,9 @@ pub fn simulate(
 
     progress(Progress::Stage("colon"));
     let colon = build_colon(cfg)?;
+    for note in &colon.notes {
+        progress(Progress::Note(note));
+    }
     progress(Progress::Stage("texture"));
     let atlas = MucosaAtlas::bake(&colon, &cfg.appearance)?;
     progress(Progress::Stage("passes"));
@@ -159,6 +167,7 @@ pub fn simulate(
     Ok(SimSummary {
         dataset,
         colon: colon.description.clone(),
+        notes: colon.notes.clone(),
         colon_length_mm: colon.centerline.length_mm(),
         sequences,
         min_clearance_mm: min_clearance,

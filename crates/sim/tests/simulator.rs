@@ -344,3 +344,68 @@ fn presets_have_the_documented_sizes() {
     assert!(small.train.frames <= 500 && small.camera.width < 640);
     assert_ne!(small.train.seed, small.test.seed);
 }
+
+/// The CT colon as other GCA models come: its landmark file rewritten without RSJ and CCJ (the
+/// mid-line already runs on through the appendix orifice to the appendix tip). The colon
+/// builds, every section is labelled, the missing landmarks are noted, and a pass at the
+/// default settings stays clear of the wall and out of the appendix.
+#[test]
+fn ct_colon_without_rsj_and_ccj_simulates_and_stops_before_the_appendix() {
+    let Some(dir) = gca_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let json = dir.join("EdinGCA_3D_00090_1_1.json");
+    let mut model: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let lms = model["landmarks"].as_array_mut().unwrap();
+    let abbr = |l: &serde_json::Value| {
+        l["anatomy"][0]["abbreviated_name"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+    let before = lms.len();
+    lms.retain(|l| !matches!(abbr(l).as_str(), "RSJ" | "CCJ"));
+    assert_eq!(lms.len(), before - 2);
+    let landmarks = tmp.path().join("model.json");
+    std::fs::write(&landmarks, model.to_string()).unwrap();
+
+    let mut mesh = MeshColonConfig::new(
+        dir.join("large_intestine_20k.vtk"),
+        dir.join("large_intestine_path.jsn"),
+        Some(landmarks),
+    );
+    mesh.inflation = 1.5;
+    let cfg = tiny_config(5).with_mesh_colon(mesh);
+    let colon = build_colon(&cfg).unwrap();
+    let order: Vec<Section> = colon.section_ranges().iter().map(|r| r.0).collect();
+    assert_eq!(order, Section::ALL.to_vec());
+    let notes = colon.notes.join("\n");
+    assert!(
+        notes.contains("landmark RSJ (recto-sigmoid junction) is missing"),
+        "{notes}"
+    );
+    assert!(
+        notes.contains("the caecum starts at ICVc (path index 1314)"),
+        "{notes}"
+    );
+
+    // The appendix orifice is path point 1352 of 1375; the pass ends before it.
+    let path = endoloc_data::read_path(&dir.join("large_intestine_path.jsn")).unwrap();
+    let raw = endoloc_data::cumulative_length(&path);
+    let scale = colon.centerline.length_mm() / raw.last().unwrap();
+    let ao_mm = raw[1352] * scale;
+    assert!(
+        colon.pass_range_mm.1 < ao_mm - 5.0,
+        "{:?} vs AO at {ao_mm:.0} mm",
+        colon.pass_range_mm
+    );
+    let mut traj = cfg.train.clone();
+    traj.frames = 300;
+    let pass = PassGenerator::new(&colon, &traj)
+        .unwrap()
+        .generate()
+        .unwrap();
+    assert_inside_lumen(&colon, &pass, traj.clearance_mm);
+    assert_eq!(*pass.sections.last().unwrap(), Section::Caecum);
+    assert!(pass.s_mm.iter().all(|&s| s < ao_mm - 5.0));
+}

@@ -3,12 +3,19 @@
 //! A SimCol3D colon folder (e.g. `SyntheticColon_I/`) holds, per trajectory `S1`, `S2`, …:
 //! - `SavedPosition_S1.txt`: one camera position per line, `tx ty tz`, centimetres, Unity world;
 //! - `SavedRotationQuaternion_S1.txt`: one camera rotation per line, `qx qy qz qw`, Unity world;
-//! - `Frames_S1/FrameBuffer_NNNN.png`: the frames, line `i` of both files is frame `i` (natural
-//!   order of the frame number);
-//! - `Frames_S1/Depth_NNNN.png` (optional): the depth map of frame `NNNN`, see below.
+//! - `Frames_S1/FrameBuffer_NNNN.png` (`NNNN` zero-padded to 4 digits): the frames. Each image
+//!   takes the pose line of its number: line `n` (1-based `n + 1`, blank lines skipped) of both
+//!   files is frame `n`. A folder may keep only some frames (e.g. every 10th): the pose lines
+//!   without an image are skipped and time stamps stay `n / fps`; an image whose number has no
+//!   pose line is an error;
+//! - `Frames_S1/Depth_NNNN.png` (optional): the depth map of frame `NNNN`, see below;
+//! - `cam.txt` (optional): the intrinsics, one line of 9 numbers, the 3×3 matrix row by row.
 //!
-//! `SRC` may be the colon folder (choose the trajectory with `sequence` when it holds several)
-//! or a `Frames_S1` folder (the pose files are then looked up next to it and in its parent).
+//! The published dataset holds three colons, `SyntheticColon_I` (trajectories `S1`–`S15`),
+//! `SyntheticColon_II` (`B1`–`B15`) and `SyntheticColon_III` (`O1`–`O3`), next to `misc/`.
+//! `SRC` may be a colon folder (choose the trajectory with `sequence` when it holds several)
+//! or a `Frames_S1` folder (the pose files and `cam.txt` are then looked up next to it and in
+//! its parent); the dataset's root folder is refused with the colon folders it holds.
 //!
 //! # From Unity to endoloc's conventions
 //! Unity's world is left-handed with y up; a Unity camera looks along its local +z with local
@@ -29,9 +36,12 @@
 //! quaternions flip sign between rows). A camera whose Unity forward is `R e_z` looks along
 //! `S R e_z` in the converted world, whose "up" is `−y`.
 //!
-//! Intrinsics: the `cam.txt` shipped with the data is ambiguous; [`simcol3d_camera`] uses the
-//! commonly used fx = fy = 227.60416, cx = cy = 237.5 for 475×475 images (override it for other
-//! sizes). Time stamps are `i / fps`.
+//! Intrinsics: the `cam.txt` shipped with the data is ambiguous: its matrix has the focal length
+//! at (0, 0) and (0, 2) and the image centre at (1, 1) and (1, 2). [`simcol3d_camera`] uses the
+//! commonly used reading fx = fy = 227.60416, cx = cy = 237.5 for 475×475 images; when the
+//! colon folder has a `cam.txt` (and [`SimCol3dConfig::cam_txt`]), its first value is taken as
+//! fx = fy, the principal point staying that of [`SimCol3dConfig::camera`]. Time stamps are
+//! `n / fps` for frame `n`.
 //!
 //! # Depth
 //! `Depth_NNNN.png` is a 16-bit grey PNG of depth along the camera's optical axis (z), joined
@@ -88,6 +98,9 @@ pub struct SimCol3dConfig {
     pub sequence: Option<String>,
     /// Import the `Depth_NNNN.png` maps when the frames folder has them (default true).
     pub depth: bool,
+    /// Take the focal length from the colon folder's `cam.txt` when there is one (default
+    /// true; off when the camera is given explicitly).
+    pub cam_txt: bool,
 }
 
 impl Default for SimCol3dConfig {
@@ -97,7 +110,50 @@ impl Default for SimCol3dConfig {
             fps: 30.0,
             sequence: None,
             depth: true,
+            cam_txt: true,
         }
+    }
+}
+
+/// File name of SimCol3D's intrinsics file, in the colon folder.
+pub const CAM_FILE: &str = "cam.txt";
+
+/// The focal length (pixels) in a SimCol3D `cam.txt`: its first value, from one line of 9
+/// numbers (the 3×3 matrix row by row; spaces or commas).
+///
+/// # Errors
+/// [`DataError::Parse`] naming the file and line for a value that is not a finite number, a
+/// count other than 9, or a focal length that is not positive; [`DataError::Io`].
+pub fn read_cam_txt(path: &Path) -> Result<f64, DataError> {
+    let names = [
+        "k00", "k01", "k02", "k10", "k11", "k12", "k20", "k21", "k22",
+    ];
+    let rows = read_rows(path, names)?;
+    match rows.as_slice() {
+        [(line, k)] => {
+            if k[0] > 0.0 {
+                Ok(k[0])
+            } else {
+                Err(DataError::parse(
+                    path,
+                    *line,
+                    format!(
+                        "focal length {} (first value); expected a positive number of pixels",
+                        k[0]
+                    ),
+                ))
+            }
+        }
+        [] => Err(DataError::parse(
+            path,
+            1,
+            "the file is empty; expected one line of 9 numbers (the 3×3 camera matrix, row by row)",
+        )),
+        [_, (line, _), ..] => Err(DataError::parse(
+            path,
+            *line,
+            "a second line; expected one line of 9 numbers (the 3×3 camera matrix, row by row)",
+        )),
     }
 }
 
@@ -200,6 +256,24 @@ fn layout(src: &Path, sequence: Option<&str>) -> Result<(PathBuf, PathBuf, PathB
             match found.as_slice() {
                 [one] => one.clone(),
                 [] => {
+                    let mut colons: Vec<String> = std::fs::read_dir(src)
+                        .map_err(|e| DataError::io(src, e))?
+                        .filter_map(|e| e.ok())
+                        .filter(|e| e.path().is_dir())
+                        .map(|e| e.file_name().to_string_lossy().into_owned())
+                        .filter(|n| n.starts_with("SyntheticColon"))
+                        .collect();
+                    colons.sort();
+                    if !colons.is_empty() {
+                        return Err(DataError::invalid(
+                            src,
+                            format!(
+                                "this is the SimCol3D dataset folder; expected one colon folder: {} (e.g. {} with --sequence S1)",
+                                colons.join(", "),
+                                src.join(&colons[0]).display()
+                            ),
+                        ));
+                    }
                     return Err(DataError::invalid(
                         src,
                         "no SavedPosition_*.txt here; expected a SimCol3D colon folder or a Frames_* folder next to its pose files",
@@ -237,11 +311,12 @@ fn layout(src: &Path, sequence: Option<&str>) -> Result<(PathBuf, PathBuf, PathB
 /// endoloc's conventions.
 ///
 /// # Errors
-/// [`DataError::Invalid`] when the files cannot be found, for a bad `fps`, when the
-/// position, quaternion and frame counts differ, or when some frames have a depth map and
-/// others not; [`DataError::Parse`] naming the file and
-/// line for a wrong column count, a value that is not a finite number, or a quaternion whose
-/// norm is not 1; [`DataError::Io`].
+/// [`DataError::Invalid`] when the files cannot be found (naming the colon folders when `src`
+/// is the dataset's root), for a bad `fps`, when the position and quaternion counts differ,
+/// when an image's frame number has no pose line, or when some frames have a depth map and
+/// others not; [`DataError::Parse`] naming the file and line for a wrong column count, a value
+/// that is not a finite number, a quaternion whose norm is not 1, or a malformed `cam.txt`;
+/// [`DataError::Io`].
 pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequence, DataError> {
     if !(config.fps.is_finite() && config.fps > 0.0) {
         return Err(DataError::invalid(
@@ -269,15 +344,55 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
             n.starts_with("FrameBuffer_") && n.ends_with(".png")
         })?,
     )?;
-    if images.len() != positions.len() {
+    if images.is_empty() {
+        return Err(DataError::invalid(
+            &frames_dir,
+            "no FrameBuffer_NNNN.png images; expected a SimCol3D Frames_* folder",
+        ));
+    }
+    if let Some((n, img)) = images.iter().find(|(n, _)| *n >= positions.len() as u64) {
+        let have = match positions.len() {
+            0 => "no pose lines".to_string(),
+            1 => "1 pose line (frame 0)".to_string(),
+            k => format!("{k} pose lines (frames 0-{})", k - 1),
+        };
         return Err(DataError::invalid(
             &pos_path,
             format!(
-                "{} poses but {} FrameBuffer_*.png images in {}; expected one pose line per frame",
-                positions.len(),
-                images.len(),
-                frames_dir.display()
+                "{} is frame {n} but the file has {have}; expected a pose line (line n + 1 = frame n) for every image's number",
+                img.display()
             ),
+        ));
+    }
+    let mut camera = config.camera;
+    let mut notes = Vec::new();
+    if config.cam_txt {
+        let dirs = [
+            pos_path.parent().map(Path::to_path_buf),
+            Some(frames_dir.clone()),
+        ];
+        if let Some(cam_path) = dirs
+            .iter()
+            .flatten()
+            .map(|d| d.join(CAM_FILE))
+            .find(|p| p.is_file())
+        {
+            let f = read_cam_txt(&cam_path)?;
+            camera.fx = f;
+            camera.fy = f;
+            notes.push(format!(
+                "focal length fx = fy = {f} px from {}; principal point ({}, {})",
+                cam_path.display(),
+                camera.cx,
+                camera.cy
+            ));
+        }
+    }
+    if images.len() < positions.len() {
+        notes.push(format!(
+            "{} of {} pose lines have an image; time stamps are frame number / fps",
+            images.len(),
+            positions.len()
         ));
     }
     let depth: BTreeMap<u64, PathBuf> = if config.depth {
@@ -292,7 +407,6 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
     } else {
         BTreeMap::new()
     };
-    let mut notes = Vec::new();
     if !depth.is_empty() {
         if let Some((n, p)) = images.iter().find(|(n, _)| !depth.contains_key(n)) {
             return Err(DataError::invalid(
@@ -316,17 +430,15 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
         invalid_value: None,
     });
     let mut frames = Vec::with_capacity(images.len());
-    for (i, ((n, image), ((_, t), (line, q)))) in images
-        .into_iter()
-        .zip(positions.iter().zip(&rotations))
-        .enumerate()
-    {
-        let q = unit_quaternion(&rot_path, *line, *q)?;
+    for (n, image) in images {
+        let (_, t) = positions[n as usize];
+        let (line, q) = rotations[n as usize];
+        let q = unit_quaternion(&rot_path, line, q)?;
         frames.push(ImportedFrame {
             image,
             depth: depth.get(&n).cloned(),
             pose: StampedPose {
-                timestamp_s: i as f64 / config.fps,
+                timestamp_s: n as f64 / config.fps,
                 pose: pose_from_unity(Vector3::new(t[0], t[1], t[2]), q, MM_PER_CM),
             },
         });
@@ -335,7 +447,7 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
         source: frames_dir,
         frames,
         depth_encoding,
-        camera: config.camera,
+        camera,
         notes: {
             notes.insert(0, format!(
                 "poses from {} and {} (Unity, cm) converted with R = S R S, t = 10 S t, S = diag(1,-1,1)",

@@ -68,6 +68,11 @@ pub struct Args {
     #[arg(long, default_value_t = TrainJob::default().uniform_by)]
     uniform_by: String,
 
+    /// Fewest training frames a uniform zone holds: a zone over a fast stretch of the pass is
+    /// widened into its neighbours until it has this many (its map needs several views).
+    #[arg(long, value_name = "N", default_value_t = TrainJob::default().min_zone_frames)]
+    min_zone_frames: usize,
+
     /// Model folder to write.
     #[arg(long, value_name = "MODEL")]
     out: PathBuf,
@@ -211,6 +216,7 @@ impl From<Args> for TrainJob {
             also_seq: a.also_seq,
             zones: a.zones,
             uniform_by: a.uniform_by,
+            min_zone_frames: a.min_zone_frames,
             out: a.out,
             force: a.force,
             resume: a.resume,

@@ -14,9 +14,12 @@
 //! packed tightly (as in a non-insufflated abdomen) the grown walls flatten against each
 //! other, which shows as planar patches in the images.
 //!
-//! Sections come from landmarks on the path (GCA model JSON: anus, RSJ, DSJ, SF, HF, CCJ, …);
-//! without landmarks they are approximated from typical section lengths (documented in
-//! [`sections_by_typical_lengths`]).
+//! Sections come from landmarks on the path (GCA model JSON: anus, RSJ, DSJ, SF, HF, CCJ, …;
+//! missing ones are placed as [`endoloc_data::section_cut`] documents and listed in
+//! [`ColonModel::notes`]); without landmarks they are approximated from typical section
+//! lengths (documented in [`sections_by_typical_lengths`]). GCA mid-lines run on through the
+//! appendix orifice (AO) to the appendix tip: a pass ends before the AO (or at the ileocaecal
+//! valve, ICVc, without an AO), so the scope never enters the appendix.
 
 use std::path::{Path, PathBuf};
 
@@ -76,33 +79,20 @@ impl MeshColonConfig {
         }
     }
 
-    /// A config for the files of a GCA model folder such as `data/gca-edin-00090`:
-    /// `large_intestine_100k.vtk` (or the 20k one), `large_intestine_path.jsn` and the first
-    /// `*.json` model file.
+    /// A config for the files of a GCA model folder, as published
+    /// (`EdinGCA_3D_NNNNN_V_S.json`, `Paths/large_intestine_path.jsn`,
+    /// `Surfaces/large-intestine.vtk`) or flattened (`large_intestine_100k.vtk` or the 20k
+    /// one, `large_intestine_path.jsn` and the model JSON side by side); see
+    /// [`endoloc_data::find_gca_model`] for the rules.
     ///
     /// # Errors
-    /// [`SimError::InvalidConfig`] when the folder lacks a surface or a path.
+    /// [`SimError::Data`] when the folder cannot be listed or lacks a surface or a path.
     pub fn from_gca_folder(dir: &Path) -> Result<Self, SimError> {
-        let pick = |names: &[&str]| names.iter().map(|n| dir.join(n)).find(|p| p.is_file());
-        let surface =
-            pick(&["large_intestine_100k.vtk", "large_intestine_20k.vtk"]).ok_or_else(|| {
-                SimError::InvalidConfig(format!(
-                    "{}: no large_intestine_100k.vtk or large_intestine_20k.vtk",
-                    dir.display()
-                ))
-            })?;
-        let path = pick(&["large_intestine_path.jsn"]).ok_or_else(|| {
-            SimError::InvalidConfig(format!("{}: no large_intestine_path.jsn", dir.display()))
-        })?;
-        let landmarks = std::fs::read_dir(dir)
-            .map_err(|e| SimError::InvalidConfig(format!("{}: {e}", dir.display())))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|x| x == "json"))
-            .min();
+        let files = endoloc_data::find_gca_model(dir)?;
         Ok(MeshColonConfig {
-            surface,
-            path,
-            landmarks,
+            surface: files.surface,
+            path: files.path,
+            landmarks: files.landmarks,
             inflation: default_inflation(),
             ring_step_mm: default_ring_step(),
             ring_segments: default_ring_segments(),
@@ -134,12 +124,31 @@ pub fn build(cfg: &MeshColonConfig) -> Result<ColonModel, SimError> {
             cfg.surface.display()
         )));
     }
+    let mut notes = Vec::new();
+    let mut stop_landmark = None;
     let raw_sections = match &cfg.landmarks {
         Some(file) => {
             let landmarks = endoloc_data::read_gca_landmarks(file)?;
-            endoloc_data::sections_from_landmarks(raw_path.len(), &landmarks)?
+            let cut = endoloc_data::section_cut(raw_path.len(), &landmarks)?;
+            notes.extend(
+                cut.estimated
+                    .iter()
+                    .map(|e| format!("{}: {e}", file.display())),
+            );
+            stop_landmark = caecum_stop_landmark(&landmarks);
+            let mut labels = Vec::with_capacity(raw_path.len());
+            for r in &cut.ranges {
+                labels.extend(std::iter::repeat_n(r.section, r.end - r.start));
+            }
+            labels
         }
-        None => sections_by_typical_lengths(&raw_path),
+        None => {
+            notes.push(format!(
+                "no landmarks: sections of {} approximated from typical section lengths",
+                cfg.path.display()
+            ));
+            sections_by_typical_lengths(&raw_path)
+        }
     };
     // Arc length of each original path point, to carry labels over to the resampled curve.
     let mut raw_s = vec![0.0f64; raw_path.len()];
@@ -186,7 +195,18 @@ pub fn build(cfg: &MeshColonConfig) -> Result<ColonModel, SimError> {
     });
 
     let length = centerline.length_mm();
-    let end = pass_end(&centerline, &sections, cfg, length);
+    let mut end = pass_end(&centerline, &sections, length);
+    if let Some((abbr, i, margin)) = stop_landmark {
+        let at = raw_s.get(i).copied().unwrap_or(0.0) * scale;
+        let limit = at - margin;
+        if limit < end {
+            end = limit;
+            notes.push(format!(
+                "the pass ends at {end:.0} mm along the mid-line, {margin:.0} mm before landmark \
+                 {abbr} (the mid-line runs on into the appendix, which is never entered)"
+            ));
+        }
+    }
     Ok(ColonModel {
         pass_range_mm: (20.0_f64.min(end / 2.0), end),
         description: format!(
@@ -200,12 +220,35 @@ pub fn build(cfg: &MeshColonConfig) -> Result<ColonModel, SimError> {
         centerline,
         sections,
         mesh: surface,
+        notes,
     })
 }
 
-/// The pass ends 40 mm into the caecum (before the appendix orifice), or 30 mm before the
-/// end of the path when no caecum is labelled.
-fn pass_end(c: &Centerline, sections: &[Section], _cfg: &MeshColonConfig, length: f64) -> f64 {
+/// Room kept before the appendix orifice, mm: the pass ends this far before it.
+const BEFORE_APPENDIX_MM: f64 = 10.0;
+
+/// The caecum landmark a pass must not pass (the mid-lines of GCA models run on through the
+/// appendix orifice to the appendix tip): the appendix orifice `AO` (ending
+/// [`BEFORE_APPENDIX_MM`] before it) or else the ileocaecal valve `ICVc` (ending at it).
+/// Returns the abbreviation, the path index and the margin, mm.
+fn caecum_stop_landmark(
+    landmarks: &[endoloc_data::Landmark],
+) -> Option<(&'static str, usize, f64)> {
+    let find = |abbr: &str| {
+        landmarks
+            .iter()
+            .find(|l| l.abbreviation.eq_ignore_ascii_case(abbr))
+            .map(|l| l.path_index)
+    };
+    find("AO")
+        .map(|i| ("AO", i, BEFORE_APPENDIX_MM))
+        .or_else(|| find("ICVc").map(|i| ("ICVc", i, 0.0)))
+}
+
+/// The pass ends 40 mm into the caecum (at most 60 % of the way through it), or 30 mm before
+/// the end of the path when no caecum is labelled; [`caecum_stop_landmark`] may end it
+/// earlier.
+fn pass_end(c: &Centerline, sections: &[Section], length: f64) -> f64 {
     match sections.iter().position(|s| *s == Section::Caecum) {
         Some(i) => {
             let caecum_end = sections

@@ -228,6 +228,9 @@ pub struct ColonModel {
     pub pass_range_mm: (f64, f64),
     /// Human-readable description (model kind, source files).
     pub description: String,
+    /// What the model had to assume, for the user: landmarks that were missing and where they
+    /// were placed, where the pass stops short of the appendix. Empty for the built-in colon.
+    pub notes: Vec<String>,
 }
 
 impl ColonModel {

@@ -262,6 +262,7 @@ pub fn build(cfg: &ProceduralColonConfig) -> Result<ColonModel, SimError> {
         centerline,
         sections,
         mesh,
+        notes: Vec::new(),
     })
 }
 
