@@ -111,7 +111,7 @@ impl PyCamera {
 /// its sequences (`ds["test"]`).
 #[pyclass(module = "endoloc", name = "Dataset", frozen)]
 pub struct PyDataset {
-    dataset: Dataset,
+    dataset: Box<Dataset>,
 }
 
 #[pymethods]
@@ -121,7 +121,9 @@ impl PyDataset {
     fn new(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<Self> {
         let dir = path_from_py(path)?;
         let dataset = py.detach(|| Dataset::open(&dir)).map_err(lib_error)?;
-        Ok(PyDataset { dataset })
+        Ok(PyDataset {
+            dataset: Box::new(dataset),
+        })
     }
     /// The dataset folder.
     #[getter]
@@ -159,7 +161,7 @@ impl PyDataset {
         let seq = py
             .detach(|| self.dataset.sequence(name))
             .map_err(lib_error)?;
-        Ok(PySequence { seq })
+        Ok(PySequence { seq: Box::new(seq) })
     }
     fn __getitem__(&self, py: Python<'_>, name: &str) -> PyResult<PySequence> {
         if !self.dataset.sequences.iter().any(|s| s == name) {
@@ -188,7 +190,7 @@ impl PyDataset {
 /// `seq[i]` is frame `i` as grey `uint8` (H×W), loaded exactly as `endoloc localize` loads it.
 #[pyclass(module = "endoloc", name = "Sequence", frozen)]
 pub struct PySequence {
-    pub(crate) seq: Sequence,
+    pub(crate) seq: Box<Sequence>,
 }
 
 impl PySequence {
@@ -212,7 +214,7 @@ impl PySequence {
     fn new(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<Self> {
         let dir = path_from_py(path)?;
         let seq = py.detach(|| Sequence::open(&dir)).map_err(lib_error)?;
-        Ok(PySequence { seq })
+        Ok(PySequence { seq: Box::new(seq) })
     }
     /// The sequence's name (its folder's).
     #[getter]

@@ -34,3 +34,15 @@ fn _endoloc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(localizer::time_rust_calls, m)?)?;
     Ok(())
 }
+
+// Python's allocator aligns objects to 16 bytes: a class whose Rust value needs more would be
+// misaligned (parts of the classifier need 64), so such values are boxed. Checked here.
+const _: () = {
+    assert!(std::mem::align_of::<localizer::PyModel>() <= 16);
+    assert!(std::mem::align_of::<localizer::PyLocalizer>() <= 16);
+    assert!(std::mem::align_of::<localizer::PyFrameResult>() <= 16);
+    assert!(std::mem::align_of::<dataset::PyDataset>() <= 16);
+    assert!(std::mem::align_of::<dataset::PySequence>() <= 16);
+    assert!(std::mem::align_of::<dataset::PyCamera>() <= 16);
+    assert!(std::mem::align_of::<jobs::PyReport>() <= 16);
+};

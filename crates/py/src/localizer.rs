@@ -22,7 +22,9 @@ use crate::dataset::PyCamera;
 /// descriptor database of the training pass.
 #[pyclass(module = "endoloc", name = "Model", frozen)]
 pub struct PyModel {
-    classifier: ZoneClassifier,
+    /// Boxed: parts of a classifier are aligned beyond what Python's allocator guarantees for
+    /// the object that holds it.
+    classifier: Box<ZoneClassifier>,
 }
 
 /// Grey images from a NumPy array (one image H×W or H×W×3, or a stack N×H×W or N×H×W×3) or
@@ -60,7 +62,9 @@ impl PyModel {
                 source: Box::new(e.into()),
             })
         })?;
-        Ok(PyModel { classifier })
+        Ok(PyModel {
+            classifier: Box::new(classifier),
+        })
     }
     /// The model folder.
     #[getter]
@@ -136,14 +140,17 @@ impl PyModel {
 /// The outcome for one frame, as a row of `frames.csv`.
 #[pyclass(module = "endoloc", name = "FrameResult", frozen)]
 pub struct PyFrameResult {
-    result: FrameResult,
+    result: Box<FrameResult>,
     wall_ms: Option<f64>,
 }
 
 impl PyFrameResult {
     /// Wraps a result; `wall_ms` is the wall time of the library call that made it.
     pub fn from_result(result: FrameResult, wall_ms: Option<f64>) -> Self {
-        PyFrameResult { result, wall_ms }
+        PyFrameResult {
+            result: Box::new(result),
+            wall_ms,
+        }
     }
 }
 
@@ -154,6 +161,23 @@ impl PyFrameResult {
     #[getter]
     fn pose<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         self.result.t_wc.as_ref().map(|p| array_from_pose(py, p))
+    }
+    /// Camera position `t_wc` (`float64` (3,), mm, world frame); `None` when rejected.
+    #[getter]
+    fn position<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.result
+            .t_wc
+            .as_ref()
+            .map(|p| PyArray1::from_slice(py, p.translation.vector.as_slice()))
+    }
+    /// Camera-to-world rotation as the unit quaternion `(qx, qy, qz, qw)` with `qw ≥ 0` —
+    /// the last four columns of a TUM line; `None` when rejected.
+    #[getter]
+    fn quaternion<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.result.t_wc.as_ref().map(|p| {
+            let q = endoloc_geometry::canonical_quaternion(p.rotation);
+            PyArray1::from_slice(py, &[q.i, q.j, q.k, q.w])
+        })
     }
     /// `refined`, `init_only` or `rejected`.
     #[getter]
@@ -251,9 +275,10 @@ impl PyFrameResult {
 /// the last refined pose between calls.
 #[pyclass(module = "endoloc", name = "Localizer")]
 pub struct PyLocalizer {
-    localizer: Localizer,
+    /// Boxed, as [`PyModel::classifier`].
+    localizer: Box<Localizer>,
     /// The live stream's state; `None` when frames are independent.
-    live: Option<LiveState>,
+    live: Option<Box<LiveState>>,
     job: LocalizeJob,
 }
 
@@ -312,9 +337,9 @@ impl PyLocalizer {
             ))
         })?;
         let localizer = py.detach(|| job.localizer()).map_err(job_error)?;
-        let live = live.then(|| localizer.live_state());
+        let live = live.then(|| Box::new(localizer.live_state()));
         Ok(PyLocalizer {
-            localizer,
+            localizer: Box::new(localizer),
             live,
             job,
         })
@@ -354,7 +379,7 @@ impl PyLocalizer {
     /// Frames seen so far in live mode.
     #[getter]
     fn frames(&self) -> usize {
-        self.live.as_ref().map_or(0, LiveState::frames)
+        self.live.as_ref().map_or(0, |s| s.frames())
     }
 
     /// The camera of the model and map (test images must have its size).
