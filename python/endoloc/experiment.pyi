@@ -49,7 +49,7 @@ def zones(
     train: str = ...,
     test: str = ...,
     out: StrPath = ...,
-    from: int = ...,
+    from_: int = ...,
     to: int = ...,
     step: int = ...,
     runs: int = ...,
@@ -68,7 +68,7 @@ def zones(
     - ``train``: Training sequence (default ``train``).
     - ``test``: Test sequence (default ``test``).
     - ``out``: Output folder.
-    - ``from``: Smallest zone count.
+    - ``from_``: Smallest zone count.
     - ``to``: Largest zone count.
     - ``step``: Step between zone counts.
     - ``runs``: Runs (training seeds 0, 1, …) per zone count.

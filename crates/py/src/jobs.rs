@@ -44,6 +44,8 @@ pub const JOBS: &[&str] = &[
 fn renamed(job: &str) -> &'static [(&'static str, &'static str)] {
     match job {
         "map" => &[("delta_r", "delta_r_px")],
+        // `from` is a Python keyword.
+        "experiment.zones" => &[("from_", "from")],
         _ => &[],
     }
 }
