@@ -22,13 +22,13 @@ import endoloc  # noqa: E402
 root = Path("tutorial")
 data_dir, model_dir = root / "data", root / "model"
 
-# 1. A dataset: the simulator's small preset (300 training + 300 test frames at 640×480).
+# 1. A dataset: the simulator's small preset (300 training + 300 test frames at 320×240).
 #    Any endoloc dataset works the same, e.g. one made by `endoloc import c3vd`.
 if not (data_dir / "dataset.toml").is_file():
     endoloc.simulate(preset="small", out=data_dir, progress=True)
 data = endoloc.Dataset(data_dir)
 test = data["test"]
-print(data, "—", len(test), "test frames;", data.camera)
+print(data, "—", len(test), "test frames")
 
 # 2. A model: the training pass cut into 50 zones, indexed with the shipped classifier (no
 #    training), then the per-zone SURF maps triangulated with the known training poses.

@@ -15,7 +15,7 @@ def compare(*, progress=None, **options):
 
 
 def zones(*, progress=None, **options):
-    """Monte-Carlo sweep of the zone count (the paper's Fig. 4)."""
+    """Monte-Carlo sweep of the zone count (the paper's Fig. 4); ``--from`` is ``from_``."""
     return job("experiment.zones", progress, options)
 
 

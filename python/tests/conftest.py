@@ -62,7 +62,7 @@ def tiny(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def small(tmp_path_factory):
-    """The `small` preset (300 + 300 frames at 640×480), indexed with the shipped classifier
+    """The `small` preset (300 + 300 frames at 320×240), indexed with the shipped classifier
     (`builtin-joint`, no training) into 50 zones, with its maps — as `endoloc demo` sets it up."""
     root = tmp_path_factory.mktemp("small")
     data, model = root / "data", root / "model"

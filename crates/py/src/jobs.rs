@@ -94,7 +94,7 @@ fn unknown_job(job: &str) -> PyErr {
     PyValueError::new_err(format!("no job {job:?}; the jobs are {}", JOBS.join(", ")))
 }
 
-/// The field names of a job, in declaration order (from its serialised default).
+/// The field names of a job, sorted (from its serialised default).
 fn fields<J: Serialize + Default>() -> Vec<String> {
     match serde_json::to_value(J::default()) {
         Ok(serde_json::Value::Object(m)) => m.keys().cloned().collect(),
@@ -112,8 +112,7 @@ fn job_table(job: &str, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<toml::Ta
     let known = options_of(job)?;
     if let Some(bad) = t.keys().find(|k| !known.contains(k)) {
         return Err(PyTypeError::new_err(format!(
-            "{}() got an unexpected keyword argument {bad:?}; its options are: {}",
-            job.replace("experiment.", "experiment."),
+            "{job}() got an unexpected keyword argument {bad:?}; its options are: {}",
             known.join(", ")
         )));
     }
@@ -414,7 +413,7 @@ pub fn run_config(
     })
 }
 
-/// The keyword arguments a job accepts, in the order of its fields.
+/// The keyword arguments a job accepts, sorted.
 #[pyfunction]
 pub fn job_options(name: &str) -> PyResult<Vec<String>> {
     options_of(name)
