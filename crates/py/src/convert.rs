@@ -131,7 +131,7 @@ fn matrix4(obj: &Bound<'_, PyAny>) -> PyResult<nalgebra::Matrix4<f64>> {
             // Lists, float32 or integer arrays: through numpy.asarray(…, float64).
             let np = obj.py().import("numpy")?;
             np.call_method1("asarray", (obj, "float64"))
-                .and_then(|a| Ok(a.extract::<PyReadonlyArray2<'_, f64>>()?))
+                .and_then(|a| a.extract::<PyReadonlyArray2<'_, f64>>())
                 .map_err(|_| err())?
         }
     };

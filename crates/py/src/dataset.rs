@@ -139,7 +139,7 @@ impl PyDataset {
     #[getter]
     fn camera(&self) -> PyCamera {
         PyCamera {
-            camera: self.dataset.meta.camera.clone(),
+            camera: self.dataset.meta.camera,
         }
     }
     /// The sequence names (sub-folders with a `poses.txt`), sorted.
@@ -308,13 +308,13 @@ fn poses_array<'py>(py: Python<'py>, poses: &[StampedPose]) -> Bound<'py, PyArra
     a.into_pyarray(py)
 }
 
+/// Time stamps (N,) and poses (N, 4, 4) of a trajectory.
+type Trajectory<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray3<f64>>);
+
 /// Reads a TUM trajectory (`timestamp tx ty tz qx qy qz qw`; `T_wc`, mm): returns the time
 /// stamps (N,) and the poses (N, 4, 4).
 #[pyfunction]
-pub fn read_tum<'py>(
-    py: Python<'py>,
-    path: &Bound<'py, PyAny>,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray3<f64>>)> {
+pub fn read_tum<'py>(py: Python<'py>, path: &Bound<'py, PyAny>) -> PyResult<Trajectory<'py>> {
     let path = path_from_py(path)?;
     let poses = py
         .detach(|| endoloc_data::read_tum(&path))

@@ -85,7 +85,7 @@ impl PyModel {
     #[getter]
     fn camera(&self) -> PyCamera {
         PyCamera {
-            camera: self.classifier.config().camera.clone(),
+            camera: self.classifier.config().camera,
         }
     }
     /// Median pose `T_wc` of every zone: `float64` (Z, 4, 4), mm — the initial pose of a frame
@@ -386,7 +386,7 @@ impl PyLocalizer {
     #[getter]
     fn camera(&self) -> PyCamera {
         PyCamera {
-            camera: self.localizer.camera().clone(),
+            camera: *self.localizer.camera(),
         }
     }
 
