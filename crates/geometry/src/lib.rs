@@ -31,7 +31,9 @@ pub use essential::{
     five_point, ransac_essential, ransac_essential_normalized, recover_pose, refine_relative_pose,
 };
 pub use pnp::{RansacConfig, RansacError, RansacPose, ransac_pnp};
-pub use pose::{Pose, canonical_quaternion, orientation_error_deg, position_error_mm};
+pub use pose::{
+    Pose, canonical_quaternion, orientation_error_deg, pose_from_matrix, position_error_mm,
+};
 pub use refine_pose::{PoseEstimate, RefineConfig, RefineError, RobustKernel, refine_pose};
 pub use registration::{Localization, RegistrationConfig, RegistrationError, localize_pose};
 pub use rotation_mean::{

@@ -203,6 +203,25 @@ impl LocalizeJob {
         cfg
     }
 
+    /// The localizer this job runs (method `endoloc`): the model joined with `also_model`, the
+    /// model's map and this job's settings — what [`LocalizeJob::run`] localizes every frame
+    /// with, for callers that feed frames one at a time (live: [`Localizer::live_state`] and
+    /// [`Localizer::localize_live`]; otherwise [`Localizer::localize`]).
+    ///
+    /// # Errors
+    /// No model folder, a model or map that cannot be loaded, or a map built for another
+    /// model.
+    pub fn localizer(&self) -> Result<Localizer> {
+        let model = self
+            .model
+            .as_deref()
+            .context("a model folder is required (--model)")?;
+        let classifier = load_classifier(model, &self.also_model, "cpu")?;
+        let map = load_map(model)?;
+        let cfg = self.localizer_config(&map.config.surf);
+        Ok(Localizer::new(classifier, map, cfg)?)
+    }
+
     /// Localizes the sequence and writes the results.
     ///
     /// # Errors
@@ -224,23 +243,19 @@ impl LocalizeJob {
             self.save(&self.out)?;
             return Ok(report);
         }
-        let model = self
-            .model
-            .as_deref()
-            .context("a model folder is required (--model)")?;
-        let classifier = load_classifier(model, &self.also_model, "cpu")?;
-        let map = load_map(model)?;
+        let localizer = self.localizer()?.with_mask(dataset_mask(&self.seq)?);
         let seq = Sequence::open(&self.seq)?;
         let camera = dataset_camera(&self.seq)?;
-        classifier.check_compatible(&camera).with_context(|| {
-            format!(
-                "model {} vs sequence {}",
-                model.display(),
-                self.seq.display()
-            )
-        })?;
-        let cfg = self.localizer_config(&map.config.surf);
-        let localizer = Localizer::new(classifier, map, cfg)?.with_mask(dataset_mask(&self.seq)?);
+        localizer
+            .classifier()
+            .check_compatible(&camera)
+            .with_context(|| {
+                format!(
+                    "model {} vs sequence {}",
+                    localizer.classifier().dir().display(),
+                    self.seq.display()
+                )
+            })?;
         let n = seq.len();
         let t = Instant::now();
         let frames = {

@@ -22,7 +22,7 @@ mod table;
 use crate::dataset::{DatasetMeta, DatasetWriter, SequenceWriter};
 use crate::{DataError, StampedPose};
 use endoloc_geometry::{Camera, Distortion, Pose};
-use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector2};
+use nalgebra::{Matrix3, UnitQuaternion, Vector2};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -211,16 +211,7 @@ pub(crate) fn unit_quaternion(
 /// `None` when `m` is not within `tol` (Frobenius norm of `mᵀm − I`) of a rotation or has a
 /// negative determinant.
 pub(crate) fn rotation_from_matrix(m: &Matrix3<f64>, tol: f64) -> Option<UnitQuaternion<f64>> {
-    if !m.iter().all(|v| v.is_finite()) {
-        return None;
-    }
-    if (m.transpose() * m - Matrix3::identity()).norm() > tol || m.determinant() <= 0.0 {
-        return None;
-    }
-    let r = Rotation3::from_matrix_eps(m, 1e-15, 100, Rotation3::identity());
-    Some(endoloc_geometry::canonical_quaternion(
-        UnitQuaternion::from_rotation_matrix(&r),
-    ))
+    endoloc_geometry::pose::rotation_from_matrix(m, tol)
 }
 
 /// A pose with a canonical (`w ≥ 0`) re-normalized quaternion.

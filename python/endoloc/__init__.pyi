@@ -1,0 +1,498 @@
+"""Type stubs of ``endoloc``: the job functions with their options."""
+
+import os
+from collections.abc import Callable, Sequence as Seq
+from typing import Literal
+
+from . import experiment as experiment
+from ._endoloc import (
+    Camera as Camera,
+    Dataset as Dataset,
+    EndolocError as EndolocError,
+    FrameResult as FrameResult,
+    Localizer as Localizer,
+    Model as Model,
+    Report as Report,
+    Sequence as Sequence,
+    __version__ as __version__,
+    read_tum as read_tum,
+    write_tum as write_tum,
+)
+from .progress import PrintProgress as PrintProgress, TqdmProgress as TqdmProgress
+
+StrPath = str | os.PathLike[str]
+ProgressArg = bool | Callable[[str, str, int, int], object] | None
+
+def options(name: str) -> list[str]:
+    """The keyword arguments job ``name`` takes (e.g. ``"train"``, ``"experiment.compare"``)."""
+
+def run(config: StrPath, *, force: bool = False, progress: ProgressArg = None) -> Report:
+    """The whole chain from one TOML file (``endoloc run --config FILE``)."""
+
+def simulate(
+    *,
+    preset: str = ...,
+    config: StrPath | None = ...,
+    seed: int = ...,
+    gca: StrPath | None = ...,
+    mesh: StrPath | None = ...,
+    path: StrPath | None = ...,
+    landmarks: StrPath | None = ...,
+    inflation: float | None = ...,
+    train_frames: int | None = ...,
+    test_frames: int | None = ...,
+    fps: float | None = ...,
+    width: int | None = ...,
+    height: int | None = ...,
+    hfov: float | None = ...,
+    depth: bool | None = ...,
+    no_depth: bool = ...,
+    noise: float | None = ...,
+    motion_blur: int | None = ...,
+    clearance: float | None = ...,
+    out: StrPath = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Dataset:
+    """Render a colonoscopy dataset (``endoloc simulate``) and open it.
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``preset``: Starting configuration: `small` or `paper`.
+    - ``config``: Full configuration from a TOML file instead of the preset (as printed
+      by `SimulateJob::sim_config` + `to_toml`, or a dataset's `dataset.toml`).
+    - ``seed``: Master seed: derives the colon shape, texture and both passes. With
+      `config`, a seed equal to the file's keeps the file's derived seeds.
+    - ``gca``: GCA model folder (surface `.vtk`, mid-line `.jsn`, landmarks `.json`) as
+      the colon.
+    - ``mesh``: Colon surface mesh (VTK legacy ASCII, OBJ, PLY or STL, mm); needs
+      `path`.
+    - ``path``: Mid-line of the mesh colon, anus → caecum (GCA `.jsn`, or CSV of x,y,z
+      in mm).
+    - ``landmarks``: Landmarks labelling the mid-line with anatomical sections (GCA
+      model JSON).
+    - ``inflation``: Radial growth factor of a mesh colon's lumen (1.0 keeps the scanned
+      wall).
+    - ``train_frames``: Frames in the training pass.
+    - ``test_frames``: Frames in the test pass.
+    - ``fps``: Frame rate of both passes, frames per second.
+    - ``width``: Image width, pixels.
+    - ``height``: Image height, pixels.
+    - ``hfov``: Horizontal field of view, degrees.
+    - ``depth``: Write 16-bit depth maps (mm × 100) next to the images.
+    - ``no_depth``: Do not write depth maps (``depth=False``).
+    - ``noise``: Sensor noise standard deviation, 8-bit grey levels.
+    - ``motion_blur``: Sub-frames averaged per frame for motion blur (1 = none).
+    - ``clearance``: Smallest distance kept between the lens and the colon wall, mm.
+    - ``out``: Output dataset folder.
+    - ``force``: Replace an existing output folder.
+    """
+    ...
+
+def train(
+    *,
+    method: Literal["siamese", "posenet", "offsetnet"] = ...,
+    data: StrPath = ...,
+    seq: str = ...,
+    also_seq: Seq[str] = ...,
+    zones: str = ...,
+    uniform_by: str = ...,
+    out: StrPath = ...,
+    force: bool = ...,
+    resume: bool = ...,
+    backbone: str = ...,
+    input: str | None = ...,
+    stem_stride: int | None = ...,
+    pooling: str | None = ...,
+    tilt_deg: float | None = ...,
+    pairs: str | None = ...,
+    pair_frames: str | None = ...,
+    near_fraction: float | None = ...,
+    zone_fraction: float | None = ...,
+    whitening: float | None = ...,
+    database_smoothing: float | None = ...,
+    schedule: str = ...,
+    config: StrPath | None = ...,
+    epochs: int | None = ...,
+    lr: float | None = ...,
+    batch_pairs: int | None = ...,
+    no_augment: bool = ...,
+    seed: int = ...,
+    device: str = ...,
+    val_seq: StrPath | None = ...,
+    pretrained: StrPath | None = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """Zones and the Siamese zone classifier, or a PoseNet/OffsetNet baseline (``endoloc train``); writes a model folder.
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``method``: The Siamese classifier, or a regression baseline on the same backbone.
+    - ``data``: Dataset folder (with `dataset.toml`).
+    - ``seq``: Training sequence inside the dataset.
+    - ``also_seq``: Further passes through the same colon (sequences of this dataset)
+      joined to the pairs.
+    - ``zones``: Zones: a number (uniform) or `expert` / `expert:N` (anatomical).
+    - ``uniform_by``: Uniform zones of equal `arc-length` or equal `frames`.
+    - ``out``: Model folder to write.
+    - ``force``: Replace an existing model folder (or discard an interrupted run).
+    - ``resume``: Continue an interrupted run from its checkpoint
+      (`MODEL.partial/checkpoint`).
+    - ``backbone``: Backbone: `compact` or `googlenet`.
+    - ``input``: Network input size `WxH` (`None`: the backbone's).
+    - ``stem_stride``: Stride of the compact backbone's first convolution.
+    - ``pooling``: Global pooling of the compact backbone: `average` or `gem`.
+    - ``tilt_deg``: Tilt augmentation, degrees about the camera's x and y axes.
+    - ``pairs``: Training pairs: `zone` or `track`.
+    - ``pair_frames``: Track pairs: largest positive and smallest negative frame gap,
+      `P,N`.
+    - ``near_fraction``: Track pairs: fraction of negatives within 2·N frames.
+    - ``zone_fraction``: Track pairs: fraction of each batch drawn as zone pairs
+      instead.
+    - ``whitening``: Power of the partial PCA whitening of the descriptors (0: none).
+    - ``database_smoothing``: Database smoothing along the training pass, ± mm of camera
+      path (0: none).
+    - ``schedule``: Schedule preset: `fast` or `paper`.
+    - ``config``: Training settings from a TOML file (fields of `TrainConfig`),
+      overridden by the above.
+    - ``epochs``: Epochs (0 with `pretrained`: only index the pass with the start
+      weights).
+    - ``lr``: Adam learning rate at the start.
+    - ``batch_pairs``: Pairs per step.
+    - ``no_augment``: Turn augmentation off.
+    - ``seed``: Seed of every random step.
+    - ``device``: Compute device: `cpu`, `cuda`, `wgpu` (GPU builds only) or `auto`.
+    - ``val_seq``: Monitor validation accuracy on this sequence folder.
+    - ``pretrained``: Start weights: a file, or `builtin`, `builtin-track`, `builtin-
+      joint`.
+    """
+    ...
+
+def map(
+    *,
+    model: StrPath = ...,
+    data: StrPath = ...,
+    seq: str = ...,
+    images_per_zone: int = ...,
+    threshold: float = ...,
+    delta_r: float = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """Per-zone SURF maps of a trained model (``endoloc map``), written into the model folder.
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``model``: Model folder written by `TrainJob`.
+    - ``data``: Dataset the model was trained on.
+    - ``seq``: Training sequence inside the dataset.
+    - ``images_per_zone``: Images per zone (the paper's `m ≥ 3`).
+    - ``threshold``: SURF threshold of the map (units of MATLAB's `MetricThreshold`).
+    - ``delta_r``: δr: map points reprojecting farther than this are dropped, pixels.
+    - ``force``: Replace an existing map.
+    """
+    ...
+
+def localize(
+    *,
+    method: Literal["endoloc", "classify", "retrieval", "posenet", "offsetnet", "vo"] = ...,
+    model: StrPath | None = ...,
+    also_model: Seq[StrPath] = ...,
+    regressor: StrPath | None = ...,
+    reference_seq: StrPath | None = ...,
+    seq: StrPath = ...,
+    out: StrPath = ...,
+    live: bool = ...,
+    track_frames: int = ...,
+    recover_frames: int = ...,
+    hold_frames: int = ...,
+    neighbours: int = ...,
+    threshold: float | None = ...,
+    retry_threshold: float | None = ...,
+    max_keypoints: int = ...,
+    candidate_zones: int = ...,
+    max_sigma_mm: float = ...,
+    max_rms_px: float = ...,
+    max_jump_mm: float = ...,
+    strict: bool = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """Localize every frame of a sequence (``endoloc localize``); ``report.frames`` holds one ``FrameResult`` per frame.
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``method``: Method.
+    - ``model``: Model folder (trained, with its map; for `posenet` the PoseNet folder).
+    - ``also_model``: Zone models joined to `model` into an ensemble (same pass and
+      zones).
+    - ``regressor``: OffsetNet model folder (`offsetnet`).
+    - ``reference_seq``: Training sequence folder holding the reference images
+      (`offsetnet`).
+    - ``seq``: Sequence folder to localize (inside a dataset folder).
+    - ``out``: Output folder.
+    - ``live``: Frames one at a time, in order, as a scope delivers them.
+    - ``track_frames``: Live: frames a refined pose stays usable as the next frames'
+      prior (0: off).
+    - ``recover_frames``: Live: frames after a refined one during which the zones around
+      it are tried (0: off).
+    - ``hold_frames``: Live: an `init_only` frame reports the last refined pose when at
+      most this many frames old (0: always the zone median).
+    - ``neighbours``: Map points also come from this many zones on each side of the
+      classified one.
+    - ``threshold``: SURF threshold on the test frames (`None`: twice the map's).
+    - ``retry_threshold``: Retry threshold for frames that register nowhere (`None`: the
+      map's; 0: off).
+    - ``max_keypoints``: At most this many SURF keypoints per test frame, the strongest
+      (0: all).
+    - ``candidate_zones``: Zones tried, best score first, until one registers (1 = the
+      paper's rule).
+    - ``max_sigma_mm``: Validity: largest position uncertainty (1σ) of a refined pose,
+      mm.
+    - ``max_rms_px``: Validity: largest RMS reprojection error of the inliers, pixels.
+    - ``max_jump_mm``: Validity: largest jump from the prior, mm.
+    - ``strict``: Stop at the first image that cannot be read instead of reporting the
+      frame as `rejected` (`unreadable_image`) and going on.
+    - ``force``: Replace existing results in `out`.
+    """
+    ...
+
+def eval(
+    *,
+    gt: StrPath = ...,
+    est: StrPath = ...,
+    frames: StrPath | None = ...,
+    gt_zones: StrPath | None = ...,
+    out: StrPath = ...,
+    force: bool = ...,
+    align: Literal["none", "se3", "sim3"] = ...,
+    t_max_diff: float = ...,
+    t_offset: float = ...,
+    rpe_delta: int = ...,
+    rpe_all_pairs: bool = ...,
+    no_plots: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """Errors of an estimated trajectory against the truth (``endoloc eval``); ``report.metrics`` is ``metrics.json``.
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``gt``: Ground-truth trajectory of the test sequence (TUM).
+    - ``est``: Estimated trajectory (TUM).
+    - ``frames``: The run's `frames.csv` (`None`: `frames.csv` next to `est`, when it
+      exists).
+    - ``gt_zones``: True zone of each test frame (CSV `frame,zone`); enables the zone
+      accuracy.
+    - ``out``: Output folder (empty: `eval/` next to `est`).
+    - ``force``: Replace existing output files.
+    - ``align``: Alignment of the estimate onto the ground truth before the errors.
+    - ``t_max_diff``: Largest timestamp difference for associating poses, seconds.
+    - ``t_offset``: Offset added to the estimate's timestamps before associating,
+      seconds.
+    - ``rpe_delta``: RPE pair distance, in associated poses.
+    - ``rpe_all_pairs``: RPE over every pair (i, i + delta) instead of consecutive
+      pairs.
+    - ``no_plots``: Do not draw the PNG plots.
+    """
+    ...
+
+def classify(
+    *,
+    model: StrPath = ...,
+    also_model: Seq[StrPath] = ...,
+    seq: StrPath = ...,
+    filter: str = ...,
+    out: StrPath | None = ...,
+    scores: StrPath | None = ...,
+    descriptors: StrPath | None = ...,
+    limit: int | None = ...,
+    stay: float | None = ...,
+    temperature: float | None = ...,
+    track_temperature: float | None = ...,
+    track_scale: float | None = ...,
+    track_step: int | None = ...,
+    track_speed: int | None = ...,
+    track_speed_change: float | None = ...,
+    track_lag: int = ...,
+    track_jump: float | None = ...,
+    verify: int = ...,
+    device: str = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """Per-frame zones and scores with temporal filters (``endoloc classify``).
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``model``: Model folder written by `TrainJob`.
+    - ``also_model``: Models joined to `model` into an ensemble (same pass and zones).
+    - ``seq``: Sequence folder (`images/` and `poses.txt`).
+    - ``filter``: Which zone the `zone` column holds: `none` (raw), `forward`,
+      `viterbi`, `track` or `smooth`.
+    - ``out``: Per-frame CSV file (`None`: the CSV is returned in the report).
+    - ``scores``: Every zone's score per frame (CSV).
+    - ``descriptors``: Every frame's descriptor (NumPy `.npy`, float32, frames ×
+      descriptor length).
+    - ``limit``: Only the first N frames.
+    - ``stay``: Zone HMM: probability of staying in a zone per frame.
+    - ``temperature``: Zone HMM: emission temperature, descriptor-distance units.
+    - ``track_temperature``: Track filter: emission temperature, descriptor-distance
+      units.
+    - ``track_scale``: Track filter: scale of the move per frame, training frames.
+    - ``track_step``: Track filter: largest move per frame, training frames.
+    - ``track_speed``: Track filter: largest speed, training frames per test frame (0:
+      no speed state).
+    - ``track_speed_change``: Track filter: probability per frame of the speed changing
+      by one.
+    - ``track_lag``: Track filter: fixed-lag smoothing over the next L frames (0 =
+      causal).
+    - ``track_jump``: Track filter: jump probability per frame.
+    - ``verify``: Verify every frame against the SURF maps of its K best zones (0 =
+      off).
+    - ``device``: Compute device: `cpu`, `cuda`, `wgpu` (GPU builds only) or `auto`.
+    - ``force``: Replace `out`, `scores` and `descriptors` files that exist.
+    """
+    ...
+
+def view(
+    *,
+    run: StrPath = ...,
+    out: StrPath | None = ...,
+    force: bool = ...,
+    thumb_width: int = ...,
+    max_points: int = ...,
+    no_gt: bool = ...,
+    seq: StrPath | None = ...,
+    model: StrPath | None = ...,
+    jpeg_quality: int = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """The self-contained HTML page of a localization run (``endoloc view``).
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``run``: Run folder written by `endoloc localize`.
+    - ``out``: Output file (`None`: `view.html` in the run folder).
+    - ``force``: Replace an existing page.
+    - ``thumb_width``: Width of the frame thumbnails, pixels (height follows the
+      camera's aspect ratio).
+    - ``max_points``: At most this many map points in the page, in all zones together
+      (subsampled evenly).
+    - ``no_gt``: Leave out the ground truth even when the sequence has `poses.txt`.
+    - ``seq``: Test sequence folder (`None`: the one in the run's `localize.toml`).
+    - ``model``: Model folder (`None`: the one in the run's `localize.toml`).
+    - ``jpeg_quality``: JPEG quality of the thumbnails, 1–100.
+    """
+    ...
+
+def features(
+    *,
+    image: StrPath = ...,
+    overlay: StrPath | None = ...,
+    keypoints: StrPath | None = ...,
+    descriptors: bool = ...,
+    config: StrPath | None = ...,
+    threshold: float | None = ...,
+    octaves: int | None = ...,
+    scale_levels: int | None = ...,
+    initial_step: int | None = ...,
+    upright: bool = ...,
+    extended: bool = ...,
+    single_thread: bool = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """SURF keypoints of one image (``endoloc features``).
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``image``: Input image (colour is converted to grey).
+    - ``overlay``: Overlay picture to write (PNG).
+    - ``keypoints``: Keypoint file to write: `.csv` (x, y, scale, orientation_rad,
+      response, laplacian, octave; pixels, origin at the top-left pixel's centre) or
+      `.json`.
+    - ``descriptors``: Include the descriptors in the JSON keypoint file.
+    - ``config``: Detector settings from a TOML file (fields of `SurfConfig`).
+    - ``threshold``: Hessian threshold (MATLAB `MetricThreshold`).
+    - ``octaves``: Number of octaves (MATLAB `NumOctaves`).
+    - ``scale_levels``: Filter sizes per octave (MATLAB `NumScaleLevels`).
+    - ``initial_step``: Sampling step of the first octave, pixels.
+    - ``upright``: U-SURF: no orientation (0 = along +x).
+    - ``extended``: 128-d descriptors instead of 64-d.
+    - ``single_thread``: Use one thread.
+    - ``force``: Replace output files that exist.
+    """
+    ...
+
+def pretrain(
+    *,
+    out: StrPath = ...,
+    colons: int = ...,
+    seed: int = ...,
+    preset: str = ...,
+    zones: int = ...,
+    epochs: int | None = ...,
+    pairs: str | None = ...,
+    near_fraction: float | None = ...,
+    pretrained: str | None = ...,
+    joint: bool = ...,
+    pair_frames: str | None = ...,
+    frames: int | None = ...,
+    fps: float | None = ...,
+    size: str | None = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """Start weights for ``train(pretrained=...)`` (``endoloc pretrain``).
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``out``: Output folder.
+    - ``colons``: Number of simulated colons.
+    - ``seed``: Seed of the first colon; colon i has seed `seed + 101·i`.
+    - ``preset``: Simulator preset of the colons (`paper` or `small`).
+    - ``zones``: Uniform zones of each colon's training pass.
+    - ``epochs``: Training epochs per colon (`None`: the `fast` schedule's); with
+      `joint`, the whole training's (`None`: 60 per colon).
+    - ``pairs``: Training pairs: `zone` or `track` (`None`: the training default).
+    - ``near_fraction``: Track pairs: fraction of negatives near the positive.
+    - ``pretrained``: Start weights of the first colon (a `.safetensors` or `.pt` file,
+      or `builtin`); `None`: random weights.
+    - ``joint``: Train one network on every colon at once.
+    - ``pair_frames``: Track pairs: largest positive and smallest negative frame gap,
+      `P,N`.
+    - ``frames``: Frames of each pass (`None`: the preset's).
+    - ``fps``: Frame rate of the simulated passes, frames per second (`None`: the
+      preset's).
+    - ``size``: Image size `WIDTHxHEIGHT`, pixels (`None`: the preset's).
+    - ``force``: Replace an existing `out/weights.safetensors`.
+    """
+    ...
+
+def demo(
+    *,
+    out: StrPath = ...,
+    zones: int = ...,
+    train: bool = ...,
+    epochs: int = ...,
+    size: tuple[int, int] = ...,
+    threshold: float = ...,
+    seed: int = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """The whole method on the built-in colon (``endoloc demo``).
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``out``: Output folder: `data/`, `model/`, `run/` (with `view.html`), `run/eval/`.
+    - ``zones``: Uniform zones along the training pass.
+    - ``train``: Train the paper's classifier from scratch (a short schedule of
+      `epochs`) instead of indexing the pass with the shipped network.
+    - ``epochs``: Training epochs with `train`.
+    - ``size``: Image size of the simulated frames, pixels (`width`, `height`).
+    - ``threshold``: SURF threshold of the map.
+    - ``seed``: Master seed of the simulation and the training.
+    - ``force``: Replace an existing output folder.
+    """
+    ...

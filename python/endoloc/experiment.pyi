@@ -1,0 +1,156 @@
+"""Type stubs of ``endoloc.experiment``."""
+
+import os
+from collections.abc import Callable, Sequence as Seq
+
+from ._endoloc import Report
+
+StrPath = str | os.PathLike[str]
+ProgressArg = bool | Callable[[str, str, int, int], object] | None
+
+def compare(
+    *,
+    data: StrPath = ...,
+    train: str = ...,
+    test: str = ...,
+    out: StrPath = ...,
+    zones: str = ...,
+    epochs: int | None = ...,
+    seed: int = ...,
+    threshold: float = ...,
+    model: StrPath | None = ...,
+    methods: Seq[str] = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """Every method on one dataset against the baselines, as the paper's Table I.
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``data``: Dataset with a training and a test sequence.
+    - ``train``: Training sequence (default ``train``).
+    - ``test``: Test sequence (default ``test``).
+    - ``out``: Output folder.
+    - ``zones``: Zones (a count, or `expert`).
+    - ``epochs``: Training epochs of the learned models (default: each schedule's own).
+    - ``seed``: Seed of every training.
+    - ``threshold``: SURF threshold of the maps; test frames are described at twice it
+      and retried at it
+    - ``model``: Use this trained Siamese model (with or without a map) instead of
+      training one.
+    - ``methods``: Methods to run (default: all).
+    - ``force``: Use an output folder that holds something else.
+    """
+    ...
+
+def zones(
+    *,
+    data: StrPath = ...,
+    train: str = ...,
+    test: str = ...,
+    out: StrPath = ...,
+    from_: int = ...,
+    to: int = ...,
+    step: int = ...,
+    runs: int = ...,
+    epochs: int = ...,
+    threshold: float = ...,
+    candidate_zones: int = ...,
+    keep_models: bool = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """Monte-Carlo sweep of the zone count (the paper's Fig. 4).
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``data``: Dataset with a training and a test sequence.
+    - ``train``: Training sequence (default ``train``).
+    - ``test``: Test sequence (default ``test``).
+    - ``out``: Output folder.
+    - ``from_``: Smallest zone count.
+    - ``to``: Largest zone count.
+    - ``step``: Step between zone counts.
+    - ``runs``: Runs (training seeds 0, 1, …) per zone count.
+    - ``epochs``: Training epochs per run (the `fast` schedule with fewer epochs, to fit
+      a night).
+    - ``threshold``: SURF threshold of the maps; test frames are described at twice it
+      and retried at it
+    - ``candidate_zones``: Zones tried per frame (1 = the paper's rule).
+    - ``keep_models``: Keep each run's model folder (weights, descriptors) instead of
+      deleting it once the
+    - ``force``: Use an output folder that holds something else.
+    """
+    ...
+
+def expert(
+    *,
+    data: StrPath = ...,
+    train: str = ...,
+    test: str = ...,
+    out: StrPath = ...,
+    count: int = ...,
+    uniform: int | None = ...,
+    sweep: StrPath | None = ...,
+    epochs: int | None = ...,
+    seed: int = ...,
+    threshold: float = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """Anatomical zones against the best uniform zone count.
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``data``: Dataset with a training and a test sequence.
+    - ``train``: Training sequence (default ``train``).
+    - ``test``: Test sequence (default ``test``).
+    - ``out``: Output folder.
+    - ``count``: Anatomical zones in all (the sections, long ones subdivided).
+    - ``uniform``: Uniform zone count to compare with.
+    - ``sweep``: Take the uniform count from a finished zone sweep (its best median).
+    - ``epochs``: Training epochs (default: the `fast` schedule's).
+    - ``seed``: Training seed.
+    - ``threshold``: SURF threshold of the maps; test frames are described at twice it
+      and retried at it
+    - ``force``: Use an output folder that holds something else.
+    """
+    ...
+
+def perturb(
+    *,
+    data: StrPath = ...,
+    train: str = ...,
+    test: str = ...,
+    out: StrPath = ...,
+    max: int = ...,
+    every: int = ...,
+    neighbours: int = ...,
+    model: StrPath | None = ...,
+    zones: str = ...,
+    epochs: int | None = ...,
+    seed: int = ...,
+    threshold: float = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """The zone forced k ± e away, errors against e (the paper's Fig. 7).
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``data``: Dataset with a training and a test sequence.
+    - ``train``: Training sequence (default ``train``).
+    - ``test``: Test sequence (default ``test``).
+    - ``out``: Output folder.
+    - ``max``: Largest zone offset e.
+    - ``every``: Use every n-th test frame.
+    - ``neighbours``: Map points also come from this many zones on each side of the
+      forced one (0: the
+    - ``model``: Trained model to use (trained into OUT/models/siamese when absent).
+    - ``zones``: Zones when training a model.
+    - ``epochs``: Training epochs when training a model.
+    - ``seed``: Training seed.
+    - ``threshold``: SURF threshold of a map built here and of the test frames.
+    - ``force``: Use an output folder that holds something else.
+    """
+    ...

@@ -1,0 +1,134 @@
+"""The localizer from Python gives what `endoloc localize` gives, to the last digit."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+import endoloc
+
+
+def tum_line(t: float, r: endoloc.FrameResult) -> str:
+    """A TUM line formatted as endoloc writes it (9 decimals in mm, 12 in the quaternion)."""
+    x, y, z = r.position
+    qx, qy, qz, qw = r.quaternion
+    return f"{t:.6f} {x:.9f} {y:.9f} {z:.9f} {qx:.12f} {qy:.12f} {qz:.12f} {qw:.12f}"
+
+
+def lines(path) -> list[str]:
+    return [l for l in open(path).read().splitlines() if l and not l.startswith("#")]
+
+
+def frames_csv(path) -> list[dict]:
+    """frames.csv without its time column (wall time differs between runs)."""
+    with open(path) as f:
+        return [{k: v for k, v in row.items() if k != "time_ms"} for row in csv.DictReader(f)]
+
+
+def row(i: int, r: endoloc.FrameResult) -> dict:
+    """The frames.csv row of a Python result, as endoloc formats it."""
+    return {
+        "frame": str(i),
+        "zone": "" if r.zone is None else str(r.zone),
+        "status": r.status,
+        "reason": r.reason or "",
+        "inliers": "" if r.zone is None else str(r.inliers),
+    }
+
+
+def test_live_localization_equals_the_command_line_on_the_small_preset(small, cli, tmp_path):
+    seq = endoloc.Dataset(small / "data")["test"]
+    cli("localize", "--model", small / "model", "--seq", seq.path, "--out", tmp_path / "cli", "--live")
+    loc = endoloc.Localizer(endoloc.Model.load(small / "model"), live=True)
+    results = [loc.localize(seq[i]) for i in range(len(seq))]
+    assert loc.frames == len(seq)
+
+    # Poses: every line of the command's trajectory.txt, to the last printed digit.
+    expected = lines(tmp_path / "cli" / "trajectory.txt")
+    got = [tum_line(t, r) for t, r in zip(seq.timestamps, results) if r.pose is not None]
+    assert len(got) == len(expected) > 0
+    assert got == expected
+    # Status, reason, zone and inliers of every frame.
+    want = frames_csv(tmp_path / "cli" / "frames.csv")
+    assert len(want) == len(results)
+    for i, (w, r) in enumerate(zip(want, results)):
+        mine = row(i, r)
+        for k in ("frame", "zone", "status", "reason", "inliers"):
+            assert mine[k] == w[k], (i, k, mine[k], w[k])
+    # The method works: most frames of the small preset are refined, within millimetres.
+    refined = [r for r in results if r.status == "refined"]
+    assert len(refined) / len(results) > 0.9
+    err = [np.linalg.norm(r.position - seq.poses[i][:3, 3]) for i, r in enumerate(results) if r.status == "refined"]
+    assert np.median(err) < 2.0
+
+    # The localize job from Python writes the same files as the command.
+    report = endoloc.localize(model=small / "model", seq=seq.path, out=tmp_path / "py", live=True)
+    assert open(tmp_path / "py" / "trajectory.txt").read() == open(tmp_path / "cli" / "trajectory.txt").read()
+    assert frames_csv(tmp_path / "py" / "frames.csv") == want
+    assert [tum_line(t, r) for t, r in zip(seq.timestamps, report.frames) if r.pose is not None] == expected
+
+    # And evaluation from Python reads them back: metrics.json as a dict.
+    ev = endoloc.eval(gt=seq.path / "poses.txt", est=tmp_path / "py" / "trajectory.txt", no_plots=True)
+    m = ev.metrics
+    assert m["frames"] == len(seq) and m["position_mm"]["median"] < 2.0
+    assert m["status_counts"]["refined"] == len(refined)
+
+
+def test_per_frame_localization_equals_the_job(tiny, tmp_path):
+    seq = endoloc.Dataset(tiny / "data")["test"]
+    report = endoloc.localize(model=tiny / "model", seq=seq.path, out=tmp_path / "run")
+    assert len(report.frames) == len(seq)
+    loc = endoloc.Localizer(tiny / "model")
+    assert not loc.live and loc.frames == 0
+    for i in range(len(seq)):
+        r, j = loc.localize(seq[i]), report.frames[i]
+        assert (r.status, r.reason, r.zone, r.inliers) == (j.status, j.reason, j.zone, j.inliers)
+        if r.pose is None:
+            assert j.pose is None
+        else:
+            assert np.array_equal(r.pose, j.pose)
+        assert r.wall_ms is not None and r.wall_ms >= r.time_ms * 0.5
+        assert j.wall_ms is None
+
+
+def test_a_result_carries_what_frames_csv_carries(tiny):
+    seq = endoloc.Dataset(tiny / "data")["test"]
+    loc = endoloc.Localizer(tiny / "model", live=True)
+    r = loc.localize(seq[0])
+    assert r.status in ("refined", "init_only", "rejected")
+    assert (r.reason is None) == (r.status == "refined")
+    if r.pose is not None:
+        p = r.pose
+        assert p.shape == (4, 4) and np.allclose(p[:3, 3], r.position)
+        assert r.quaternion[3] >= 0 and np.isclose(np.linalg.norm(r.quaternion), 1.0)
+    assert set(r.times_ms) == {"zone", "surf", "matching", "refine"}
+    assert np.isclose(sum(r.times_ms.values()), r.time_ms)
+    assert r.inlier_px.shape == (r.inliers, 2) if r.status == "refined" else r.inlier_px.ndim == 2
+    assert 0 <= r.zone < 6
+    loc.reset()
+    assert loc.frames == 0
+
+
+def test_live_state_is_kept_between_calls_and_reset(tiny):
+    seq = endoloc.Dataset(tiny / "data")["test"]
+    loc = endoloc.Localizer(tiny / "model", live=True)
+    first = [loc.localize(seq[i]) for i in range(10)]
+    loc.reset()
+    again = [loc.localize(seq[i]) for i in range(10)]
+    assert [r.status for r in first] == [r.status for r in again]
+    assert all(
+        (a.pose is None and b.pose is None) or np.array_equal(a.pose, b.pose) for a, b in zip(first, again)
+    )
+
+
+def test_localizer_options_are_the_commands(tiny):
+    seq = endoloc.Dataset(tiny / "data")["test"]
+    loc = endoloc.Localizer(tiny / "model", candidate_zones=1, threshold=40.0, max_rms_px=3.0)
+    assert "candidate_zones = 1" in loc.settings and "threshold = 40.0" in loc.settings
+    loc.localize(seq[0])
+    with pytest.raises(TypeError, match="unexpected keyword argument \"out\""):
+        endoloc.Localizer(tiny / "model", out="runs/x")
+    with pytest.raises(ValueError, match="candidate_zones"):
+        endoloc.Localizer(tiny / "model", candidate_zones="three")
