@@ -97,6 +97,7 @@ def train(
     also_seq: Seq[str] = ...,
     zones: str = ...,
     uniform_by: str = ...,
+    min_zone_frames: int = ...,
     out: StrPath = ...,
     force: bool = ...,
     resume: bool = ...,
@@ -134,6 +135,8 @@ def train(
       joined to the pairs.
     - ``zones``: Zones: a number (uniform) or `expert` / `expert:N` (anatomical).
     - ``uniform_by``: Uniform zones of equal `arc-length` or equal `frames`.
+    - ``min_zone_frames``: Fewest training frames a uniform zone holds: a zone over a fast
+      stretch of the pass is widened into its neighbours until it has this many.
     - ``out``: Model folder to write.
     - ``force``: Replace an existing model folder (or discard an interrupted run).
     - ``resume``: Continue an interrupted run from its checkpoint
@@ -206,6 +209,8 @@ def localize(
     track_frames: int = ...,
     recover_frames: int = ...,
     hold_frames: int = ...,
+    trusted_inliers: int = ...,
+    gate_mm: float = ...,
     neighbours: int = ...,
     threshold: float | None = ...,
     retry_threshold: float | None = ...,
@@ -236,8 +241,13 @@ def localize(
       prior (0: off).
     - ``recover_frames``: Live: frames after a refined one during which the zones around
       it are tried (0: off).
-    - ``hold_frames``: Live: an `init_only` frame reports the last refined pose when at
-      most this many frames old (0: always the zone median).
+    - ``hold_frames``: Live: the motion model predicts for at most this many frames after
+      the last refined one; an `init_only` frame reports the prediction (0: always the zone
+      median, no gate).
+    - ``trusted_inliers``: Live: a registration with at least this many inliers is trusted
+      without the motion model's agreement.
+    - ``gate_mm``: Live: base radius of the motion gate around the predicted camera centre,
+      mm.
     - ``neighbours``: Map points also come from this many zones on each side of the
       classified one.
     - ``threshold``: SURF threshold on the test frames (`None`: twice the map's).

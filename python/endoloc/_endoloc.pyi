@@ -191,6 +191,8 @@ class Localizer:
         track_frames: int = ...,
         recover_frames: int = ...,
         hold_frames: int = ...,
+        trusted_inliers: int = ...,
+        gate_mm: float = ...,
         neighbours: int = ...,
         threshold: float | None = ...,
         retry_threshold: float | None = ...,

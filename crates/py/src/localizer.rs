@@ -303,6 +303,8 @@ const LOCALIZER_OPTIONS: &[&str] = &[
     "track_frames",
     "recover_frames",
     "hold_frames",
+    "trusted_inliers",
+    "gate_mm",
     "neighbours",
     "threshold",
     "retry_threshold",
