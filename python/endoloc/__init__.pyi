@@ -49,6 +49,8 @@ def simulate(
     no_depth: bool = ...,
     noise: float | None = ...,
     motion_blur: int | None = ...,
+    field_stop: float | None = ...,
+    black_border: int | None = ...,
     clearance: float | None = ...,
     out: StrPath = ...,
     force: bool = ...,
@@ -83,6 +85,9 @@ def simulate(
     - ``no_depth``: Do not write depth maps (``depth=False``).
     - ``noise``: Sensor noise standard deviation, 8-bit grey levels.
     - ``motion_blur``: Sub-frames averaged per frame for motion blur (1 = none).
+    - ``field_stop``: Radius of a circular field stop, fraction of the half image diagonal
+      (0 = none); the dataset then gets the renderer's mask.
+    - ``black_border``: Black columns on the left and right of every frame, pixels.
     - ``clearance``: Smallest distance kept between the lens and the colon wall, mm.
     - ``out``: Output dataset folder.
     - ``force``: Replace an existing output folder.

@@ -54,6 +54,11 @@ pub struct SimulateJob {
     pub noise: Option<f64>,
     /// Sub-frames averaged per frame for motion blur (1 = none).
     pub motion_blur: Option<usize>,
+    /// Radius of a circular field stop, fraction of the half image diagonal (0 = none); the
+    /// dataset then gets the renderer's mask.
+    pub field_stop: Option<f64>,
+    /// Black columns on the left and right of every frame, pixels.
+    pub black_border: Option<u32>,
     /// Smallest distance kept between the lens and the colon wall, mm.
     pub clearance: Option<f64>,
     /// Output dataset folder.
@@ -82,6 +87,8 @@ impl Default for SimulateJob {
             depth: None,
             noise: None,
             motion_blur: None,
+            field_stop: None,
+            black_border: None,
             clearance: None,
             out: PathBuf::new(),
             force: false,
@@ -169,6 +176,12 @@ impl SimulateJob {
         }
         if let Some(n) = self.motion_blur {
             cfg.render.motion_blur_samples = n;
+        }
+        if let Some(r) = self.field_stop {
+            cfg.render.field_stop = r;
+        }
+        if let Some(b) = self.black_border {
+            cfg.render.black_border_px = b;
         }
         cfg.validate()?;
         Ok(cfg)

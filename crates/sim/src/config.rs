@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use endoloc_geometry::Camera;
+use endoloc_geometry::{Camera, Distortion};
 use serde::{Deserialize, Serialize};
 
 use crate::SimError;
@@ -25,7 +25,9 @@ pub enum ColonSource {
     Mesh(MeshColonConfig),
 }
 
-/// The scope camera: an ideal pinhole, principal point at the image centre.
+/// The scope camera, principal point at the image centre: an ideal pinhole, or with lens
+/// distortion (OpenCV radial-tangential or fisheye), rendered through a wider pinhole and
+/// resampled.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraConfig {
@@ -33,8 +35,13 @@ pub struct CameraConfig {
     pub width: u32,
     /// Image height, pixels.
     pub height: u32,
-    /// Horizontal field of view, degrees (square pixels).
+    /// Horizontal field of view, degrees (square pixels). For a fisheye camera the focal
+    /// length is that of the equidistant model over the image width:
+    /// `f = (width/2) / (hfov/2 in radians)`.
     pub hfov_deg: f64,
+    /// Lens distortion of the rendered images (none by default).
+    #[serde(default, skip_serializing_if = "Distortion::is_none")]
+    pub distortion: Distortion,
 }
 
 impl CameraConfig {
@@ -55,7 +62,15 @@ impl CameraConfig {
                 self.hfov_deg
             )));
         }
-        Ok(Camera::from_hfov(self.width, self.height, self.hfov_deg))
+        let mut camera = Camera::from_hfov(self.width, self.height, self.hfov_deg);
+        if let Distortion::Fisheye { .. } = self.distortion {
+            let f = (self.width as f64 / 2.0) / (self.hfov_deg.to_radians() / 2.0);
+            camera.fx = f;
+            camera.fy = f;
+        }
+        camera.distortion = self.distortion;
+        camera.validate().map_err(SimError::InvalidConfig)?;
+        Ok(camera)
     }
 }
 
@@ -92,17 +107,23 @@ pub enum Preset {
     /// A quick dataset for tests and the demo: 300 + 300 frames at 320×240, same field of
     /// view, depth maps on.
     Small,
+    /// The `paper` passes seen through a real endoscope's optics, after C3VD's recordings
+    /// (1350×1080 scaled to 640×512): an equidistant fisheye of 120° horizontal field of view,
+    /// a circular field stop that blacks out the corners, stronger (saturating) specular
+    /// highlights, per-frame exposure changes and motion blur.
+    C3vdLike,
 }
 
 impl Preset {
     /// All presets.
-    pub const ALL: [Preset; 2] = [Preset::Paper, Preset::Small];
+    pub const ALL: [Preset; 3] = [Preset::Paper, Preset::Small, Preset::C3vdLike];
 
     /// The preset's name on the command line.
     pub fn name(&self) -> &'static str {
         match self {
             Preset::Paper => "paper",
             Preset::Small => "small",
+            Preset::C3vdLike => "c3vd-like",
         }
     }
 }
@@ -114,7 +135,9 @@ impl std::str::FromStr for Preset {
             .into_iter()
             .find(|p| p.name() == s)
             .ok_or_else(|| {
-                SimError::InvalidConfig(format!("unknown preset {s:?}; expected paper or small"))
+                SimError::InvalidConfig(format!(
+                    "unknown preset {s:?}; expected paper, small or c3vd-like"
+                ))
             })
     }
 }
@@ -131,6 +154,7 @@ impl SimConfig {
                 width: 640,
                 height: 480,
                 hfov_deg: 90.0,
+                distortion: Distortion::None,
             },
             appearance: AppearanceConfig::default(),
             render: RenderConfig::default(),
@@ -155,6 +179,7 @@ impl SimConfig {
                     width: 320,
                     height: 240,
                     hfov_deg: 90.0,
+                    distortion: Distortion::None,
                 },
                 train: TrajectoryConfig {
                     frames: 300,
@@ -162,6 +187,35 @@ impl SimConfig {
                 },
                 test: TrajectoryConfig {
                     frames: 300,
+                    ..TrajectoryConfig::default()
+                },
+                ..base
+            },
+            Preset::C3vdLike => SimConfig {
+                camera: CameraConfig {
+                    width: 640,
+                    height: 512,
+                    hfov_deg: 120.0,
+                    distortion: Distortion::Fisheye {
+                        k1: -0.03,
+                        k2: 0.004,
+                        k3: 0.0,
+                        k4: 0.0,
+                    },
+                },
+                render: RenderConfig {
+                    field_stop: 0.8,
+                    specular: 1.2,
+                    exposure_jitter: 0.15,
+                    motion_blur_samples: 3,
+                    ..RenderConfig::default()
+                },
+                train: TrajectoryConfig {
+                    frames: 2610,
+                    ..TrajectoryConfig::default()
+                },
+                test: TrajectoryConfig {
+                    frames: 2603,
                     ..TrajectoryConfig::default()
                 },
                 ..base

@@ -57,6 +57,9 @@ pub struct RenderConfig {
     /// Black border: this many columns on the left and on the right of every frame are
     /// black (0 = none).
     pub black_border_px: u32,
+    /// Auto-exposure changes: each frame's brightness is multiplied by `exp(j · n)` with `n`
+    /// standard normal from the frame's noise seed (0 = none).
+    pub exposure_jitter: f64,
 }
 
 impl Default for RenderConfig {
@@ -76,6 +79,7 @@ impl Default for RenderConfig {
             shutter_fraction: 0.5,
             field_stop: 0.0,
             black_border_px: 0,
+            exposure_jitter: 0.0,
         }
     }
 }
@@ -117,6 +121,11 @@ impl RenderConfig {
         )?;
         check("noise_sigma", self.noise_sigma, self.noise_sigma >= 0.0)?;
         check("field_stop", self.field_stop, self.field_stop >= 0.0)?;
+        check(
+            "exposure_jitter",
+            self.exposure_jitter,
+            (0.0..=2.0).contains(&self.exposure_jitter),
+        )?;
         check(
             "shutter_fraction",
             self.shutter_fraction,
@@ -161,6 +170,11 @@ pub struct Renderer<'a> {
     colon: &'a ColonModel,
     atlas: &'a MucosaAtlas,
     camera: Camera,
+    /// The ideal pinhole the rasteriser draws with: the camera itself, or for a distorted
+    /// camera a wider pinhole of the same focal length whose image is then resampled.
+    raster: Camera,
+    /// For a distorted camera: per output pixel, the raster pixel its ray hits (NaN: none).
+    remap: Option<Vec<[f32; 2]>>,
     cfg: RenderConfig,
     gamma_lut: Vec<u8>,
     vignette: Vec<f32>,
@@ -172,8 +186,9 @@ impl<'a> Renderer<'a> {
     /// Prepares a renderer.
     ///
     /// # Errors
-    /// [`SimError::InvalidConfig`] for an invalid camera (or one with lens distortion, which
-    /// the rasteriser does not model) or render config.
+    /// [`SimError::InvalidConfig`] for an invalid camera or render config, or a distorted
+    /// camera whose rays reach too far from the optical axis for a pinhole raster (add a field
+    /// stop).
     pub fn new(
         colon: &'a ColonModel,
         atlas: &'a MucosaAtlas,
@@ -181,11 +196,6 @@ impl<'a> Renderer<'a> {
         cfg: RenderConfig,
     ) -> Result<Self, SimError> {
         camera.validate().map_err(SimError::InvalidConfig)?;
-        if !camera.distortion.is_none() {
-            return Err(SimError::InvalidConfig(
-                "the simulator renders ideal pinhole images: remove the camera distortion".into(),
-            ));
-        }
         cfg.validate()?;
         let gamma_lut = (0..4096)
             .map(|i| {
@@ -231,11 +241,25 @@ impl<'a> Renderer<'a> {
                 cfg.field_stop
             )));
         }
+        let (raster, remap) = if camera.distortion.is_none() {
+            (camera, None)
+        } else {
+            let (raster, table) = distortion_remap(&camera, &mask)?;
+            // Pixels without a ray are black and invalid.
+            for (m, r) in mask.iter_mut().zip(&table) {
+                if !r[0].is_finite() {
+                    *m = 0;
+                }
+            }
+            (raster, Some(table))
+        };
         let has_mask = mask.contains(&0);
         Ok(Renderer {
             colon,
             atlas,
             camera,
+            raster,
+            remap,
             cfg,
             gamma_lut,
             vignette,
@@ -269,7 +293,7 @@ impl<'a> Renderer<'a> {
         noise_seed: u64,
         scratch: &mut RenderScratch,
     ) -> RenderedFrame {
-        let n = (self.camera.width * self.camera.height) as usize;
+        let n = (self.raster.width * self.raster.height) as usize;
         scratch.linear.clear();
         scratch.linear.resize(3 * n, 0.0);
         scratch.depth.clear();
@@ -285,6 +309,9 @@ impl<'a> Renderer<'a> {
                 }
             }
         }
+        if let Some(table) = &self.remap {
+            self.resample(table, scratch);
+        }
         let rgb = self.finish(noise_seed, scratch);
         RenderedFrame {
             rgb,
@@ -299,7 +326,7 @@ impl<'a> Renderer<'a> {
         s: f64,
         scratch: &mut RenderScratch,
     ) -> (std::ops::Range<usize>, usize) {
-        let (w, h) = (self.camera.width as usize, self.camera.height as usize);
+        let (w, h) = (self.raster.width as usize, self.raster.height as usize);
         let n = w * h;
         scratch.inv_z.clear();
         scratch.inv_z.resize(n, 0.0);
@@ -329,7 +356,7 @@ impl<'a> Renderer<'a> {
         }
 
         let near = self.cfg.near_mm as f32;
-        let cam = Intrinsics::from(&self.camera);
+        let cam = Intrinsics::from(&self.raster);
         let mut buf = VisBuffer {
             w,
             h,
@@ -464,13 +491,63 @@ impl<'a> Renderer<'a> {
         }
     }
 
+    /// Resamples the raster's linear image and depth to the distorted camera's pixels through
+    /// `table`: bilinear (depth: nearest where the neighbours disagree by more than 2 %, at a
+    /// fold's silhouette).
+    fn resample(&self, table: &[[f32; 2]], scratch: &mut RenderScratch) {
+        let (rw, rh) = (self.raster.width as usize, self.raster.height as usize);
+        let mut linear = vec![0.0f32; 3 * table.len()];
+        let mut depth = vec![0.0f32; table.len()];
+        for (i, &[x, y]) in table.iter().enumerate() {
+            if !x.is_finite() {
+                continue;
+            }
+            let (x0, y0) = (x.floor(), y.floor());
+            let (fx, fy) = (x - x0, y - y0);
+            let (x0, y0) = (x0 as usize, y0 as usize);
+            let (x1, y1) = ((x0 + 1).min(rw - 1), (y0 + 1).min(rh - 1));
+            for c in 0..3 {
+                let at = |xx: usize, yy: usize| scratch.linear[3 * (yy * rw + xx) + c];
+                let top = at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx;
+                let bottom = at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx;
+                linear[3 * i + c] = top * (1.0 - fy) + bottom * fy;
+            }
+            let d = |xx: usize, yy: usize| scratch.depth[yy * rw + xx];
+            let corners = [d(x0, y0), d(x1, y0), d(x0, y1), d(x1, y1)];
+            let (lo, hi) = corners
+                .iter()
+                .fold((f32::MAX, 0.0f32), |(lo, hi), &z| (lo.min(z), hi.max(z)));
+            // Bilinear on a smooth surface; nearest across a fold's silhouette.
+            depth[i] = if lo > 0.0 && hi < 1.02 * lo {
+                let top = corners[0] * (1.0 - fx) + corners[1] * fx;
+                let bottom = corners[2] * (1.0 - fx) + corners[3] * fx;
+                top * (1.0 - fy) + bottom * fy
+            } else {
+                let (nx, ny) = ((x + 0.5) as usize, (y + 0.5) as usize);
+                d(nx.min(rw - 1), ny.min(rh - 1))
+            };
+        }
+        scratch.linear = linear;
+        scratch.depth = depth;
+    }
+
     /// Tone curve, vignetting, gamma and sensor noise → 8-bit RGB.
     fn finish(&self, noise_seed: u64, scratch: &RenderScratch) -> Vec<u8> {
         let sigma = self.cfg.noise_sigma as f32;
         let lut = &self.gamma_lut;
+        let gain = if self.cfg.exposure_jitter > 0.0 {
+            // Box–Muller from two 32-bit uniforms of the frame's seed.
+            let h = splitmix64(noise_seed ^ 0xE7F0_5E2E);
+            let u1 = ((h >> 32) as f64 + 1.0) / 4_294_967_297.0;
+            let u2 = (h & 0xFFFF_FFFF) as f64 / 4_294_967_296.0;
+            let n = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+            (self.cfg.exposure_jitter * n).exp() as f32
+        } else {
+            1.0
+        };
         let mut out = vec![0u8; scratch.linear.len()];
         for (i, px) in out.chunks_exact_mut(3).enumerate() {
-            let v = self.vignette[i];
+            let v = self.vignette[i] * gain;
             let h = if sigma > 0.0 {
                 splitmix64(noise_seed ^ (i as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93))
             } else {
@@ -497,6 +574,65 @@ impl<'a> Renderer<'a> {
         }
         out
     }
+}
+
+/// Largest raster side for a distorted camera, pixels.
+const MAX_RASTER_SIDE: u32 = 4096;
+
+/// The pinhole raster and the per-pixel resampling table of a distorted `camera`: every pixel
+/// valid in `mask` is undistorted to its ray; the raster is an ideal pinhole with the same
+/// focal lengths, centred, just wide enough for all those rays.
+fn distortion_remap(camera: &Camera, mask: &[u8]) -> Result<(Camera, Vec<[f32; 2]>), SimError> {
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let mut rays = Vec::with_capacity(w * h);
+    let (mut ax, mut ay) = (0.0f64, 0.0f64);
+    for y in 0..h {
+        for x in 0..w {
+            let xd = nalgebra::Vector2::new(
+                (x as f64 - camera.cx) / camera.fx,
+                (y as f64 - camera.cy) / camera.fy,
+            );
+            // Rays beyond 80° from the axis cannot be drawn by a pinhole.
+            let ray = (mask[y * w + x] != 0)
+                .then(|| camera.distortion.undistort(xd))
+                .flatten()
+                .filter(|r| r.norm() < 80f64.to_radians().tan());
+            if let Some(r) = ray {
+                ax = ax.max(r.x.abs());
+                ay = ay.max(r.y.abs());
+            }
+            rays.push(ray);
+        }
+    }
+    let rw = (2.0 * (ax * camera.fx).ceil() + 4.0) as u32;
+    let rh = (2.0 * (ay * camera.fy).ceil() + 4.0) as u32;
+    if rw > MAX_RASTER_SIDE || rh > MAX_RASTER_SIDE {
+        return Err(SimError::InvalidConfig(format!(
+            "the distorted camera sees too far off its axis for the rasteriser ({rw}×{rh} \
+             pinhole pixels needed, at most {MAX_RASTER_SIDE}): narrow the field of view or \
+             add a field stop (render.field_stop)"
+        )));
+    }
+    let raster = Camera {
+        width: rw,
+        height: rh,
+        fx: camera.fx,
+        fy: camera.fy,
+        cx: (rw as f64 - 1.0) / 2.0,
+        cy: (rh as f64 - 1.0) / 2.0,
+        distortion: endoloc_geometry::Distortion::None,
+    };
+    let table = rays
+        .iter()
+        .map(|r| match r {
+            Some(r) => [
+                (r.x * raster.fx + raster.cx) as f32,
+                (r.y * raster.fy + raster.cy) as f32,
+            ],
+            None => [f32::NAN, f32::NAN],
+        })
+        .collect();
+    Ok((raster, table))
 }
 
 /// Per-triangle shading data: surface coordinates at the vertices and the unit surface

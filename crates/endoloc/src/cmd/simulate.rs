@@ -30,10 +30,12 @@ pub struct Args {
     #[arg(short, long, required_unless_present = "print_config")]
     out: Option<PathBuf>,
 
-    /// Starting configuration: `small` (300 + 300 frames, 320×240, depth maps) or `paper`
-    /// (2610 + 2603 frames, 640×480, as in the paper).
+    /// Starting configuration: `small` (300 + 300 frames, 320×240, depth maps), `paper`
+    /// (2610 + 2603 frames, 640×480, as in the paper) or `c3vd-like` (the paper's passes
+    /// through real-endoscope optics: 640×512 fisheye of 120°, circular field stop with its
+    /// mask, saturating highlights, exposure changes, motion blur).
     #[arg(long, default_value_t = SimulateJob::default().preset,
-          value_parser = ["small", "paper"])]
+          value_parser = ["small", "paper", "c3vd-like"])]
     preset: String,
 
     /// Full configuration from a TOML file (as printed by --print-config, or a dataset's
@@ -110,6 +112,16 @@ pub struct Args {
     #[arg(long)]
     motion_blur: Option<usize>,
 
+    /// Circular field stop: its radius as a fraction of the half image diagonal (0 = none;
+    /// 0.9 blacks out the corners, as on real endoscopes). The dataset gets the renderer's
+    /// mask (mask.png).
+    #[arg(long)]
+    field_stop: Option<f64>,
+
+    /// Black columns on the left and the right of every frame, pixels (0 = none).
+    #[arg(long)]
+    black_border: Option<u32>,
+
     /// Smallest distance kept between the lens and the colon wall, mm.
     #[arg(long)]
     clearance: Option<f64>,
@@ -154,6 +166,8 @@ impl Args {
             depth,
             noise: self.noise,
             motion_blur: self.motion_blur,
+            field_stop: self.field_stop,
+            black_border: self.black_border,
             clearance: self.clearance,
             out: self.out.unwrap_or_default(),
             force: self.force,
