@@ -44,9 +44,11 @@ pub struct LocalizerConfig {
     /// Zone-level HMM for `--live` when a prediction carries no descriptor (the track filter,
     /// with the model's parameters, is used otherwise).
     pub temporal: TemporalConfig,
-    /// Zones tried, best classifier score first, until one gives a `refined` pose (beyond the
-    /// paper, which trusts the top zone): a misclassified frame usually fails to register in
-    /// the wrong zone's map and succeeds in the right one. 1 = the paper's behaviour.
+    /// Zones tried, best classifier score first, until one gives a `refined` pose with
+    /// [`MotionConfig::trusted_inliers`] (beyond the paper, which trusts the top zone): a
+    /// misclassified frame usually fails to register in the wrong zone's map and succeeds in
+    /// the right one. When only weaker registrations come out, the one with the most inliers
+    /// wins. 1 = the paper's behaviour.
     pub candidate_zones: usize,
     /// Live mode only (beyond the paper): after a `refined` frame, the next frame is first
     /// registered from that pose, in the zone it lies in, before the classified zones are
@@ -513,9 +515,9 @@ impl Localizer {
 
     /// Localizes a frame given the classifier's prediction and the zone chosen from it (the
     /// top zone, or a temporally filtered one): that zone first, then the next best-scoring
-    /// zones (up to [`LocalizerConfig::candidate_zones`] in all) until one gives `refined`;
-    /// otherwise the result with the most inliers from the chosen zone's attempts, preferring
-    /// the chosen zone on ties.
+    /// zones (up to [`LocalizerConfig::candidate_zones`] in all) until one gives `refined`
+    /// with the trusted inlier count; otherwise the refined result with the most inliers, or
+    /// when none registers the chosen zone's verdict.
     ///
     /// # Errors
     /// As [`Localizer::localize_in_zone`].
@@ -632,15 +634,28 @@ impl Localizer {
             },
             ..r
         };
+        // A registration with the trusted inlier count ends the search; a weaker one may be a
+        // spurious consensus in a wrong zone, so the other candidates are tried too and the
+        // refined result with the most inliers wins.
+        let mut weak: Option<FrameResult> = None;
         for zone in order {
             let score = pred.zone_scores.get(zone).copied().unwrap_or(f32::NAN);
             let r = self.register(features, zone, score, times)?;
             spent.matching_ms += r.times.matching_ms;
             spent.refine_ms += r.times.refine_ms;
             if r.status == Status::Refined {
-                return Ok(with_times(r, &spent));
+                if r.inliers >= self.cfg.motion.trusted_inliers {
+                    return Ok(with_times(r, &spent));
+                }
+                if weak.as_ref().is_none_or(|w| r.inliers > w.inliers) {
+                    weak = Some(r);
+                }
+                continue;
             }
             first.get_or_insert(r);
+        }
+        if let Some(r) = weak {
+            return Ok(with_times(r, &spent));
         }
         // No zone registered: report the chosen zone's verdict (its median pose, or rejected).
         let r = first.ok_or_else(|| LocalizeError::Config("no candidate zone".into()))?;
