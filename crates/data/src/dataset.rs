@@ -172,10 +172,21 @@ mod meta_toml {
         "pinhole".to_string()
     }
 
+    /// The camera model, refused here (so the error points at its line) unless `pinhole`.
+    fn pinhole_model<'de, D: serde::Deserializer<'de>>(d: D) -> Result<String, D::Error> {
+        let model = String::deserialize(d)?;
+        if model != "pinhole" {
+            return Err(serde::de::Error::custom(format!(
+                "camera model {model:?} is not supported; expected \"pinhole\" (lens distortion goes in [camera.distortion])"
+            )));
+        }
+        Ok(model)
+    }
+
     #[derive(Serialize, Deserialize)]
     #[serde(deny_unknown_fields)]
     pub(super) struct CameraRepr {
-        #[serde(default = "pinhole")]
+        #[serde(default = "pinhole", deserialize_with = "pinhole_model")]
         model: String,
         width: u32,
         height: u32,
@@ -205,12 +216,6 @@ mod meta_toml {
         type Error = String;
         fn try_from(r: MetaRepr) -> Result<Self, String> {
             let c = r.camera;
-            if c.model != "pinhole" {
-                return Err(format!(
-                    "camera model {:?} is not supported; expected \"pinhole\" (lens distortion goes in [camera.distortion])",
-                    c.model
-                ));
-            }
             Ok(DatasetMeta {
                 name: r.name,
                 format_version: r.format_version,
