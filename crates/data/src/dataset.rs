@@ -284,6 +284,18 @@ fn check_mask(path: &Path, mask: &image::GrayImage, camera: &Camera) -> Result<(
     Ok(())
 }
 
+/// Writes a mask as an 8-bit grey PNG.
+fn write_mask_png(path: &Path, mask: &image::GrayImage) -> Result<(), DataError> {
+    write_png(
+        path,
+        mask.width(),
+        mask.height(),
+        png::ColorType::Grayscale,
+        png::BitDepth::Eight,
+        mask.as_raw(),
+    )
+}
+
 /// Adds (or replaces, with `force`) the image mask of the dataset in `dir`: writes
 /// [`MASK_FILE`] and names it in `dataset.toml`, each atomically.
 ///
@@ -304,14 +316,7 @@ pub fn write_dataset_mask(
     }
     check_mask(&path, mask, &meta.camera)?;
     let tmp = hidden_sibling(&path, "tmp");
-    write_png(
-        &tmp,
-        mask.width(),
-        mask.height(),
-        png::ColorType::Grayscale,
-        png::BitDepth::Eight,
-        mask.as_raw(),
-    )?;
+    write_mask_png(&tmp, mask)?;
     std::fs::rename(&tmp, &path).map_err(|e| DataError::io(&path, e))?;
     meta.mask = Some(MASK_FILE.to_string());
     let text = meta
@@ -456,14 +461,7 @@ impl DatasetWriter {
     pub fn write_mask(&mut self, mask: &image::GrayImage) -> Result<(), DataError> {
         let path = self.shared.staging.join(MASK_FILE);
         check_mask(&path, mask, &self.meta.camera)?;
-        write_png(
-            &path,
-            mask.width(),
-            mask.height(),
-            png::ColorType::Grayscale,
-            png::BitDepth::Eight,
-            mask.as_raw(),
-        )?;
+        write_mask_png(&path, mask)?;
         self.meta.mask = Some(MASK_FILE.to_string());
         Ok(())
     }

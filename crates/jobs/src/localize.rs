@@ -430,19 +430,23 @@ pub fn load_classifier(model: &Path, also: &[PathBuf], device: &str) -> Result<Z
 /// # Errors
 /// A sequence folder that is not inside a dataset.
 pub fn dataset_camera(seq_dir: &Path) -> Result<endoloc_geometry::Camera> {
+    Ok(dataset_of(seq_dir)?.meta.camera)
+}
+
+/// The dataset that holds sequence folder `seq_dir`.
+fn dataset_of(seq_dir: &Path) -> Result<Dataset> {
     let parent = seq_dir
         .canonicalize()
         .map_err(|e| JobError::io(seq_dir, e))?
         .parent()
         .map(Path::to_path_buf)
         .context("the sequence folder has no parent dataset folder")?;
-    let ds = Dataset::open(&parent).with_context(|| {
+    Dataset::open(&parent).with_context(|| {
         format!(
             "{} should be a sequence folder inside a dataset (with dataset.toml)",
             seq_dir.display()
         )
-    })?;
-    Ok(ds.meta.camera)
+    })
 }
 
 /// The image mask of the dataset that holds sequence folder `seq_dir` (`[camera] mask`), when
@@ -451,13 +455,7 @@ pub fn dataset_camera(seq_dir: &Path) -> Result<endoloc_geometry::Camera> {
 /// # Errors
 /// A sequence folder outside a dataset; an unreadable or invalid mask.
 pub fn dataset_mask(seq_dir: &Path) -> Result<Option<Arc<Mask>>> {
-    let parent = seq_dir
-        .canonicalize()
-        .map_err(|e| JobError::io(seq_dir, e))?
-        .parent()
-        .map(Path::to_path_buf)
-        .context("the sequence folder has no parent dataset folder")?;
-    mask_of(&Dataset::open(&parent)?)
+    mask_of(&dataset_of(seq_dir)?)
 }
 
 /// The image mask of `dataset`, when it has one.

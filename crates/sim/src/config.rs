@@ -161,18 +161,20 @@ impl SimConfig {
             train: TrajectoryConfig::default(),
             test: TrajectoryConfig::default(),
         };
-        let cfg = match preset {
-            Preset::Paper => SimConfig {
-                train: TrajectoryConfig {
-                    frames: 2610,
-                    ..TrajectoryConfig::default()
-                },
-                test: TrajectoryConfig {
-                    frames: 2603,
-                    ..TrajectoryConfig::default()
-                },
-                ..base
+        // The paper's passes: 2610 training and 2603 test frames.
+        let paper_passes = SimConfig {
+            train: TrajectoryConfig {
+                frames: 2610,
+                ..TrajectoryConfig::default()
             },
+            test: TrajectoryConfig {
+                frames: 2603,
+                ..TrajectoryConfig::default()
+            },
+            ..base.clone()
+        };
+        let cfg = match preset {
+            Preset::Paper => paper_passes,
             Preset::Small => SimConfig {
                 depth: true,
                 camera: CameraConfig {
@@ -210,15 +212,7 @@ impl SimConfig {
                     motion_blur_samples: 3,
                     ..RenderConfig::default()
                 },
-                train: TrajectoryConfig {
-                    frames: 2610,
-                    ..TrajectoryConfig::default()
-                },
-                test: TrajectoryConfig {
-                    frames: 2603,
-                    ..TrajectoryConfig::default()
-                },
-                ..base
+                ..paper_passes
             },
         };
         cfg.with_seed(0)
