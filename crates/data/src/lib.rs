@@ -10,6 +10,7 @@ pub mod centerline;
 pub mod check;
 pub mod dataset;
 pub mod error;
+pub mod fingerprint;
 pub mod fsutil;
 pub mod gca;
 pub mod import;
@@ -30,6 +31,7 @@ pub use dataset::{
     write_dataset_mask,
 };
 pub use error::DataError;
+pub use fingerprint::{Fingerprint, poses_fingerprint};
 pub use fsutil::write_atomic;
 pub use gca::{GcaModelFiles, find_gca_model};
 pub use info::{DatasetInfo, SequenceInfo, dataset_info};

@@ -74,8 +74,31 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
-            std::process::ExitCode::FAILURE
+            eprintln!("error: {}", error_message(&err));
+            std::process::ExitCode::from(EXIT_REFUSED)
         }
     }
+}
+
+/// Exit status of a run that stopped with an error: the input, the settings or the output
+/// folder were not usable (the message names the file, the line where there is one, and what
+/// was expected). Usage errors from the argument parser use the same status; 0 is success and
+/// 101 a bug (a panic), which is never the user's fault.
+const EXIT_REFUSED: u8 = 2;
+
+/// `context: cause: cause …`, each cause once: an error whose message already quotes its
+/// source (`path: No such file or directory`) is not followed by the source again.
+fn error_message(err: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in err.chain() {
+        let line = cause.to_string();
+        if line.is_empty() || text.contains(&line) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&line);
+    }
+    text
 }

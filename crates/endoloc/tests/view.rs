@@ -89,6 +89,7 @@ fn fake_run(root: &Path, with_gt: bool) -> PathBuf {
         config: MapConfig::default(),
         camera,
         zones,
+        model_zones: None,
     };
     save_map(&map, &model).unwrap();
 

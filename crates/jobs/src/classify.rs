@@ -296,6 +296,7 @@ impl ClassifyJob {
         {
             let ds = Dataset::open(parent)?;
             clf.check_compatible(&ds.meta.camera)?;
+            clf.check_dataset(&ds)?;
         }
         let n = self.limit.map_or(seq.len(), |l| l.min(seq.len()));
         let (temporal, track_cfg) = self.filters(clf)?;

@@ -245,10 +245,11 @@ impl LocalizeJob {
         }
         let localizer = self.localizer()?.with_mask(dataset_mask(&self.seq)?);
         let seq = Sequence::open(&self.seq)?;
-        let camera = dataset_camera(&self.seq)?;
-        localizer
-            .classifier()
-            .check_compatible(&camera)
+        let dataset = dataset_of(&self.seq)?;
+        let classifier = localizer.classifier();
+        classifier
+            .check_compatible(&dataset.meta.camera)
+            .and_then(|()| classifier.check_dataset(&dataset))
             .with_context(|| {
                 format!(
                     "model {} vs sequence {}",
@@ -353,6 +354,7 @@ impl LocalizeJob {
                 let clf = ZoneClassifier::load(dir)
                     .with_context(|| format!("loading model {}", dir.display()))?;
                 clf.check_compatible(&camera)?;
+                clf.check_dataset(&dataset_of(&self.seq)?)?;
                 let (preds, ms) = predict_zones(&clf, &seq, progress)?;
                 Ok((clf, preds, ms))
             };

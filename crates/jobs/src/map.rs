@@ -91,6 +91,7 @@ impl MapJob {
             .with_context(|| format!("loading model {}", self.model.display()))?;
         let dataset = Dataset::open(&self.data)?;
         classifier.check_compatible(&dataset.meta.camera)?;
+        classifier.check_dataset(&dataset)?;
         let train = dataset.sequence(&self.seq)?;
         let cfg = self.map_config();
         let t = Instant::now();
@@ -104,6 +105,14 @@ impl MapJob {
                 &cfg,
                 &|_| bar.inc(1),
             )?
+        };
+        let map = endoloc_localize::Map {
+            model_zones: classifier
+                .config()
+                .provenance
+                .as_ref()
+                .map(|p| p.zones.clone()),
+            ..map
         };
         let summary = map.summary();
         save_map(&map, &self.model)?;

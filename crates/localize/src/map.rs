@@ -123,6 +123,10 @@ pub struct Map {
     pub camera: Camera,
     /// One map per zone, in zone order.
     pub zones: Vec<ZoneMap>,
+    /// Fingerprint of the model's `zones.csv` the map was built for (set by whoever builds the
+    /// map for a model folder; `None` for maps written before fingerprints existed). A
+    /// [`crate::Localizer`] refuses a map whose zones are not its model's.
+    pub model_zones: Option<endoloc_data::Fingerprint>,
 }
 
 /// Counts for a report.
@@ -239,6 +243,7 @@ pub fn build_map_masked(
         config: cfg.clone(),
         camera: *camera,
         zones: zone_maps?,
+        model_zones: None,
     })
 }
 

@@ -10,6 +10,7 @@
 use std::io::Read;
 use std::path::Path;
 
+use endoloc_data::Fingerprint;
 use endoloc_geometry::Camera;
 use nalgebra::{Point2, Point3};
 use serde::{Deserialize, Serialize};
@@ -29,6 +30,12 @@ struct MapMeta {
     zones: usize,
     points: usize,
     empty_zones: Vec<usize>,
+    /// Fingerprint of the model's `zones.csv` the map was built for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    model_zones: Option<Fingerprint>,
+    /// Fingerprint of `map.bin`: the two files belong to one build.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    bin: Option<Fingerprint>,
 }
 
 fn file_err(path: &Path, e: impl std::fmt::Display) -> LocalizeError {
@@ -38,11 +45,14 @@ fn file_err(path: &Path, e: impl std::fmt::Display) -> LocalizeError {
     }
 }
 
-/// Writes `map.toml` and `map.bin` into `dir` (atomically, each via a temporary file).
+/// Writes `map.bin` and then `map.toml` into `dir`, each atomically (temporary file, rename).
+/// `map.toml` records `map.bin`'s fingerprint, so a pair from two builds (a run killed
+/// between the two renames) is refused by [`load_map`] instead of being used.
 ///
 /// # Errors
 /// [`LocalizeError::File`] on I/O errors.
 pub fn save_map(map: &Map, dir: &Path) -> Result<(), LocalizeError> {
+    let bin = map_bytes(map);
     let summary = map.summary();
     let meta = MapMeta {
         format_version: VERSION,
@@ -51,11 +61,17 @@ pub fn save_map(map: &Map, dir: &Path) -> Result<(), LocalizeError> {
         zones: summary.zones,
         points: summary.points,
         empty_zones: summary.empty_zones,
+        model_zones: map.model_zones.clone(),
+        bin: Some(Fingerprint::of_bytes(&bin)),
     };
     let toml_path = dir.join("map.toml");
     let text = toml::to_string_pretty(&meta).map_err(|e| file_err(&toml_path, e))?;
-    write_atomic(&toml_path, text.as_bytes())?;
+    write_atomic(&dir.join("map.bin"), &bin)?;
+    write_atomic(&toml_path, text.as_bytes())
+}
 
+/// `map.bin`'s bytes (module doc).
+fn map_bytes(map: &Map) -> Vec<u8> {
     let mut buf: Vec<u8> = Vec::new();
     buf.extend_from_slice(MAGIC);
     put_u32(&mut buf, VERSION);
@@ -85,7 +101,7 @@ pub fn save_map(map: &Map, dir: &Path) -> Result<(), LocalizeError> {
             }
         }
     }
-    write_atomic(&dir.join("map.bin"), &buf)
+    buf
 }
 
 /// Reads a map written by [`save_map`].
@@ -107,6 +123,19 @@ pub fn load_map(dir: &Path) -> Result<Map, LocalizeError> {
     std::fs::File::open(&bin_path)
         .and_then(|mut f| f.read_to_end(&mut bytes))
         .map_err(|e| file_err(&bin_path, e))?;
+    if let Some(recorded) = &meta.bin {
+        let found = Fingerprint::of_bytes(&bytes);
+        if &found != recorded {
+            return Err(file_err(
+                &bin_path,
+                format!(
+                    "fingerprint {found}, but map.toml records {recorded}: the two files come \
+                     from different builds (an interrupted `endoloc map`?); rebuild the map with \
+                     endoloc map --force"
+                ),
+            ));
+        }
+    }
     let mut r = Reader {
         bytes: &bytes,
         pos: 0,
@@ -163,6 +192,7 @@ pub fn load_map(dir: &Path) -> Result<Map, LocalizeError> {
         config: meta.config,
         camera: meta.camera,
         zones,
+        model_zones: meta.model_zones,
     })
 }
 

@@ -293,6 +293,18 @@ impl Localizer {
                 classifier.zone_count()
             )));
         }
+        let model_zones = classifier.config().provenance.as_ref().map(|p| &p.zones);
+        if let (Some(built_for), Some(model)) = (&map.model_zones, model_zones)
+            && built_for != model
+        {
+            return Err(LocalizeError::Mismatch(format!(
+                "the map in {} was built for zones with fingerprint {built_for}, but the \
+                 model's zones.csv has fingerprint {model} (a map copied from another model?): \
+                 rebuild it with endoloc map --model {} --data DATASET --force",
+                classifier.dir().display(),
+                classifier.dir().display()
+            )));
+        }
         classifier.check_compatible(&map.camera)?;
         cfg.motion.validate().map_err(LocalizeError::Config)?;
         if !(cfg.uncertainty_scale.is_finite() && cfg.uncertainty_scale > 0.0) {

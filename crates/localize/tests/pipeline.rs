@@ -95,6 +95,7 @@ fn localizer(f: &Fixture, cfg: LocalizerConfig) -> Localizer {
         track: Default::default(),
         whitening: None,
         train: TrainConfig::default(),
+        provenance: None,
     };
     let clf = ZoneClassifier::from_parts(
         "test".into(),

@@ -79,6 +79,7 @@ fn classifier_with(whiten: bool) -> ZoneClassifier {
         track: Default::default(),
         whitening: whitening.as_ref().map(|w| w.power),
         train: TrainConfig::default(),
+        provenance: None,
     };
     ZoneClassifier::from_parts(
         std::path::PathBuf::from("bench"),

@@ -110,6 +110,16 @@ impl ZoneClassifier {
             model: dir.to_path_buf(),
             message: m,
         };
+        if let Some(recorded) = config.provenance.as_ref().map(|p| &p.zones) {
+            let found = model::file_fingerprint(&dir.join(ZONES_FILE))?;
+            if &found != recorded {
+                return Err(incompatible(format!(
+                    "{ZONES_FILE} has fingerprint {found} but model.toml records {recorded}: \
+                     the zone table was replaced or edited after training; put the model's own \
+                     {ZONES_FILE} back or train again"
+                )));
+            }
+        }
         if database.dim != config.backbone.descriptor_dim() {
             return Err(incompatible(format!(
                 "{DATABASE_FILE} holds descriptors of length {} but the backbone makes {}",
@@ -361,6 +371,44 @@ impl ZoneClassifier {
             )));
         }
         Ok(())
+    }
+
+    /// Checks that `dataset` is the one this model was trained on, when the dataset holds the
+    /// model's training sequence: its poses must have the fingerprint recorded in
+    /// `model.toml`. A dataset without that sequence (a test pass recorded on its own), and a
+    /// model written before fingerprints existed, are not checked.
+    ///
+    /// # Errors
+    /// [`NetError::Incompatible`] saying what differs (frame counts and fingerprints) and
+    /// what to do; [`NetError::Data`] when the training sequence's poses cannot be read.
+    pub fn check_dataset(&self, dataset: &endoloc_data::Dataset) -> Result<(), NetError> {
+        let Some(provenance) = &self.config.provenance else {
+            return Ok(());
+        };
+        let name = &self.config.sequence;
+        if !dataset.sequences.iter().any(|s| s == name) {
+            return Ok(());
+        }
+        let poses_path = dataset.root.join(name).join("poses.txt");
+        let poses = endoloc_data::read_tum(&poses_path)?;
+        let found = endoloc_data::poses_fingerprint(&poses);
+        if found == provenance.train_poses {
+            return Ok(());
+        }
+        Err(NetError::Incompatible {
+            model: self.dir.clone(),
+            message: format!(
+                "the model was trained on dataset '{}' ({} '{name}' frames, poses fingerprint {}), \
+                 but {} holds '{}' with {} '{name}' frames, poses fingerprint {found}: \
+                 train a model on this dataset, or give the matching model",
+                self.config.dataset,
+                self.config.frames,
+                provenance.train_poses,
+                poses_path.display(),
+                dataset.meta.name,
+                poses.len(),
+            ),
+        })
     }
 
     fn check_image(&self, img: &image::GrayImage) -> Result<(), NetError> {

@@ -25,7 +25,7 @@ use crate::train_config::TrainConfig;
 use crate::zones::{ZONES_FILE, ZoneConfig, ZoneTable};
 use burn::tensor::Device;
 use burn_store::{ModuleSnapshot, SafetensorsStore};
-use endoloc_data::Sequence;
+use endoloc_data::{Fingerprint, Sequence};
 use endoloc_geometry::Camera;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -76,6 +76,23 @@ pub struct ModelConfig {
     pub whitening: Option<f32>,
     /// The training run.
     pub train: TrainConfig,
+    /// What the folder was made from (fingerprints); written by every model since they
+    /// existed, absent in older folders (which are then not checked).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+}
+
+/// What a model folder was made from: `localize` and `classify` compare it with the dataset
+/// they are given, `map` records it in the map, so that a model, a map and a dataset from
+/// different runs are never mixed silently.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Provenance {
+    /// Fingerprint of the training sequence's poses as read from the dataset
+    /// ([`endoloc_data::poses_fingerprint`]).
+    pub train_poses: Fingerprint,
+    /// Fingerprint of the folder's `zones.csv` (its bytes).
+    pub zones: Fingerprint,
 }
 
 impl ModelConfig {
@@ -184,11 +201,29 @@ pub fn write_model_files(
     history: &[EpochRecord],
 ) -> Result<(), NetError> {
     save_weights(net, &dir.join(WEIGHTS_FILE))?;
-    zones.save(&dir.join(ZONES_FILE))?;
+    let zones_path = dir.join(ZONES_FILE);
+    zones.save(&zones_path)?;
     db.save(&dir.join(crate::database::DATABASE_FILE))?;
     endoloc_data::write_tum(&dir.join(POSES_FILE), &seq.poses)?;
     write_history(&dir.join(HISTORY_FILE), history)?;
-    cfg.save(dir)
+    let provenance = Provenance {
+        train_poses: endoloc_data::poses_fingerprint(&seq.poses),
+        zones: file_fingerprint(&zones_path)?,
+    };
+    ModelConfig {
+        provenance: Some(provenance),
+        ..cfg.clone()
+    }
+    .save(dir)
+}
+
+/// The fingerprint of a file's bytes.
+///
+/// # Errors
+/// [`NetError::Io`] naming the file.
+pub fn file_fingerprint(path: &Path) -> Result<Fingerprint, NetError> {
+    let bytes = std::fs::read(path).map_err(|e| NetError::io(path, e))?;
+    Ok(Fingerprint::of_bytes(&bytes))
 }
 
 /// Moves the finished staging folder to `dest`. With `force`, an existing `dest` is first

@@ -105,6 +105,7 @@ pub(crate) fn write_model(
         frames: src.seq.len(),
         zones: src.zones.config,
         train: cfg.clone(),
+        provenance: None,
     };
     model::write_model_files(
         staging,
