@@ -201,6 +201,7 @@ mod meta_toml {
     }
 
     #[derive(Serialize, Deserialize)]
+    #[serde(deny_unknown_fields)]
     pub(super) struct MetaRepr {
         name: String,
         format_version: u32,
@@ -783,7 +784,18 @@ impl Dataset {
     /// [`DataError::Io`] if `dataset.toml` or the folder cannot be read, [`DataError::Parse`]
     /// or [`DataError::Invalid`] for a bad `dataset.toml`.
     pub fn open(dir: &Path) -> Result<Self, DataError> {
-        let meta = DatasetMeta::read(&dir.join(META_FILE))?;
+        let meta_path = dir.join(META_FILE);
+        if !meta_path.is_file() {
+            let what = if !dir.is_dir() {
+                "no such folder"
+            } else if dir.join(POSES_FILE).is_file() {
+                "a sequence folder, not a dataset: give the folder above it"
+            } else {
+                "not an endoloc dataset (no dataset.toml): make one with endoloc simulate or endoloc import"
+            };
+            return Err(DataError::invalid(dir, what));
+        }
+        let meta = DatasetMeta::read(&meta_path)?;
         let sequences = list_sequences(dir)?;
         Ok(Dataset {
             root: dir.to_path_buf(),
@@ -852,6 +864,9 @@ pub struct Sequence {
     pub sections: Option<Vec<Section>>,
     /// Depth maps in frame order, when the `depth/` folder exists.
     pub depth_paths: Option<Vec<PathBuf>>,
+    /// The camera's image size `(width, height)` from the dataset's `dataset.toml`, when the
+    /// sequence sits in a dataset folder: every image loaded is checked against it.
+    pub image_size: Option<(u32, u32)>,
 }
 
 impl Sequence {
@@ -906,6 +921,15 @@ impl Sequence {
         } else {
             None
         };
+        // The dataset's camera, when the sequence sits in a dataset folder.
+        let meta_path = dir.parent().map(|p| p.join(META_FILE));
+        let image_size = match meta_path {
+            Some(p) if p.is_file() => {
+                let c = DatasetMeta::read(&p)?.camera;
+                Some((c.width, c.height))
+            }
+            _ => None,
+        };
         Ok(Sequence {
             name,
             dir: dir.to_path_buf(),
@@ -913,6 +937,7 @@ impl Sequence {
             image_paths,
             sections,
             depth_paths,
+            image_size,
         })
     }
 
@@ -942,9 +967,29 @@ impl Sequence {
     /// Loads image `i` as 8-bit grey (an RGB image is converted).
     ///
     /// # Errors
-    /// [`DataError::Invalid`] for `i` out of range; [`DataError::Image`] / [`DataError::Io`].
+    /// [`DataError::Invalid`] for `i` out of range; [`DataError::Image`] for an image that
+    /// cannot be decoded or whose size is not the camera's; [`DataError::Io`].
     pub fn load_gray(&self, i: usize) -> Result<image::GrayImage, DataError> {
-        Ok(decode(self.frame_path(&self.image_paths, i)?)?.into_luma8())
+        Ok(self.load_image(i)?.into_luma8())
+    }
+
+    /// Decodes image `i` and checks its size against the dataset's camera.
+    fn load_image(&self, i: usize) -> Result<image::DynamicImage, DataError> {
+        let path = self.frame_path(&self.image_paths, i)?;
+        let img = decode(path)?;
+        if let Some((w, h)) = self.image_size
+            && (img.width(), img.height()) != (w, h)
+        {
+            return Err(DataError::image(
+                path,
+                format!(
+                    "image is {}x{}; expected the camera's {w}x{h} (dataset.toml)",
+                    img.width(),
+                    img.height()
+                ),
+            ));
+        }
+        Ok(img)
     }
 
     /// Loads image `i` as 8-bit RGB (a grey image is replicated).
@@ -952,7 +997,7 @@ impl Sequence {
     /// # Errors
     /// [`DataError::Invalid`] for `i` out of range; [`DataError::Image`] / [`DataError::Io`].
     pub fn load_rgb(&self, i: usize) -> Result<image::RgbImage, DataError> {
-        Ok(decode(self.frame_path(&self.image_paths, i)?)?.into_rgb8())
+        Ok(self.load_image(i)?.into_rgb8())
     }
 
     /// Loads depth map `i`: `(width, height, depth_mm)` row-major, depth along the optical

@@ -9,9 +9,8 @@ use std::path::{Path, PathBuf};
 /// Errors from reading or writing datasets, trajectories, meshes and mid-line paths.
 #[derive(Debug, thiserror::Error)]
 pub enum DataError {
-    /// An operating-system I/O error on `path`. Its message names the kind of failure; the
-    /// OS's own message is the error's `source()` (printed by `anyhow`'s `{:#}`).
-    #[error("{}: I/O error ({})", path.display(), source.kind())]
+    /// An operating-system I/O error on `path`: `path: the OS's message`.
+    #[error("{}: {source}", path.display())]
     Io {
         /// The file or folder the operation was about.
         path: PathBuf,

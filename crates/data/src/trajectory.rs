@@ -66,13 +66,26 @@ pub(crate) fn parse_tum_line(line: &str) -> Result<StampedPose, String> {
 
 /// Parses TUM text; `Err((line, message))` at the first bad line (1-based).
 pub(crate) fn parse_tum_text(text: &str) -> Result<Vec<StampedPose>, (usize, String)> {
-    let mut poses = Vec::new();
+    let mut poses: Vec<StampedPose> = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let t = line.trim();
         if t.is_empty() || t.starts_with('#') {
             continue;
         }
-        poses.push(parse_tum_line(t).map_err(|m| (i + 1, m))?);
+        let pose = parse_tum_line(t).map_err(|m| (i + 1, m))?;
+        if let Some(last) = poses.last()
+            && pose.timestamp_s <= last.timestamp_s
+        {
+            return Err((
+                i + 1,
+                format!(
+                    "time stamp {} is not after the previous pose's {}; expected strictly \
+                     increasing time stamps (one pose per frame, in time order)",
+                    pose.timestamp_s, last.timestamp_s
+                ),
+            ));
+        }
+        poses.push(pose);
     }
     Ok(poses)
 }
@@ -80,7 +93,7 @@ pub(crate) fn parse_tum_text(text: &str) -> Result<Vec<StampedPose>, (usize, Str
 /// Reads a TUM trajectory file.
 ///
 /// Blank lines and lines starting with `#` are skipped. Every other line must have exactly 8
-/// finite numbers; the quaternion must have a norm within [`QUATERNION_NORM_TOLERANCE`] of 1
+/// finite numbers, its time stamp after the previous line's; the quaternion must have a norm within [`QUATERNION_NORM_TOLERANCE`] of 1
 /// and is normalized.
 ///
 /// # Errors

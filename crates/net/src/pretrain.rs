@@ -177,42 +177,43 @@ pub fn pretrain(
     progress: &mut dyn FnMut(&TrainProgress),
 ) -> Result<PretrainReport, NetError> {
     cfg.validate()?;
-    let staging = target.prepare()?;
-    let t_load = Instant::now();
-    let (cache, table, images) = joint_cache(colons, zones, cfg, progress)?;
-    let load_s = t_load.elapsed().as_secs_f64();
-    let ckpt = checkpoint_dir(&staging);
-    let fitted = fit(
-        cfg,
-        &cache,
-        &table,
-        None,
-        Some(&ckpt),
-        target.resume,
-        progress,
-    )?;
-    progress(&TrainProgress::outside_training(Phase::Saving, 0, 1));
-    model::save_weights(&fitted.net.valid(), &staging.join(model::WEIGHTS_FILE))?;
-    model::write_history(&staging.join(model::HISTORY_FILE), &fitted.history)?;
-    plot::loss_curve_or_warn(&staging.join(model::LOSS_PNG), &fitted.history);
-    let record = PretrainRecord {
-        train: cfg.clone(),
-        zones: *zones,
-        colons: colons.iter().map(|c| c.train.dir.clone()).collect(),
-        images: images.clone(),
-    };
-    let path = staging.join(PRETRAIN_FILE);
-    let text = toml::to_string(&record).map_err(|e| NetError::Config(e.to_string()))?;
-    std::fs::write(&path, text).map_err(|e| NetError::io(&path, e))?;
-    discard_checkpoint(&ckpt)?;
-    model::publish(&staging, &target.dir, target.force)?;
-    Ok(PretrainReport {
-        dir: target.dir.clone(),
-        images,
-        history: fitted.history,
-        load_s,
-        train_s: fitted.train_s,
-        steps: fitted.steps,
+    target.run(|staging| {
+        let t_load = Instant::now();
+        let (cache, table, images) = joint_cache(colons, zones, cfg, progress)?;
+        let load_s = t_load.elapsed().as_secs_f64();
+        let ckpt = checkpoint_dir(staging);
+        let fitted = fit(
+            cfg,
+            &cache,
+            &table,
+            None,
+            Some(&ckpt),
+            target.resume,
+            progress,
+        )?;
+        progress(&TrainProgress::outside_training(Phase::Saving, 0, 1));
+        model::save_weights(&fitted.net.valid(), &staging.join(model::WEIGHTS_FILE))?;
+        model::write_history(&staging.join(model::HISTORY_FILE), &fitted.history)?;
+        plot::loss_curve_or_warn(&staging.join(model::LOSS_PNG), &fitted.history);
+        let record = PretrainRecord {
+            train: cfg.clone(),
+            zones: *zones,
+            colons: colons.iter().map(|c| c.train.dir.clone()).collect(),
+            images: images.clone(),
+        };
+        let path = staging.join(PRETRAIN_FILE);
+        let text = toml::to_string(&record).map_err(|e| NetError::Config(e.to_string()))?;
+        std::fs::write(&path, text).map_err(|e| NetError::io(&path, e))?;
+        discard_checkpoint(&ckpt)?;
+        model::publish(staging, &target.dir, target.force)?;
+        Ok(PretrainReport {
+            dir: target.dir.clone(),
+            images,
+            history: fitted.history,
+            load_s,
+            train_s: fitted.train_s,
+            steps: fitted.steps,
+        })
     })
 }
 

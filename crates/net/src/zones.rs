@@ -957,6 +957,7 @@ mod tests {
             image_paths: vec![],
             sections: None,
             depth_paths: None,
+            image_size: None,
         };
         let err = ZoneTable::from_sequence(&seq, &ZoneConfig::Expert { count: 3 })
             .unwrap_err()

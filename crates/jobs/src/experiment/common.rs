@@ -644,7 +644,7 @@ pub(super) fn image_block(path: &Path, caption: &str, progress: &dyn Progress) -
 }
 
 /// Refuses to work in a folder that holds another experiment's results unless `--force`,
-/// and creates it.
+/// before any input is read ([`create_out`] makes it once the inputs open).
 pub(super) fn prepare_out(out: &Path, marker: &str, force: bool) -> Result<()> {
     if out.exists() && !force {
         let m = out.join(marker);
@@ -660,8 +660,13 @@ pub(super) fn prepare_out(out: &Path, marker: &str, force: bool) -> Result<()> {
             );
         }
     }
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     Ok(())
+}
+
+/// Creates the output folder that [`prepare_out`] allowed, once the inputs have been opened:
+/// bad input leaves no folder behind.
+pub(super) fn create_out(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))
 }
 
 /// Position error (mm) and orientation error (degrees, geodesic angle of `R_estᵀ R_gt`) of

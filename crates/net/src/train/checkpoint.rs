@@ -215,6 +215,21 @@ impl TrainTarget {
         Ok(staging)
     }
 
+    /// Runs `body` with the staging folder of [`TrainTarget::prepare`]. When it fails before
+    /// any checkpoint was written (a bad image, a bad setting), the staging folder is removed,
+    /// so that an error leaves no partial output; with a checkpoint it is kept for `--resume`.
+    ///
+    /// # Errors
+    /// Those of [`TrainTarget::prepare`] and of `body`.
+    pub fn run<T>(&self, body: impl FnOnce(&Path) -> Result<T, NetError>) -> Result<T, NetError> {
+        let staging = self.prepare()?;
+        let result = body(&staging);
+        if result.is_err() && !has_checkpoint(&staging) {
+            let _ = std::fs::remove_dir_all(&staging);
+        }
+        result
+    }
+
     /// The staging folder next to the model folder: `DIR.partial`.
     pub fn staging_dir(&self) -> PathBuf {
         let name = self
@@ -224,4 +239,9 @@ impl TrainTarget {
             .unwrap_or_else(|| "model".into());
         self.dir.with_file_name(format!("{name}.partial"))
     }
+}
+
+/// Whether a staging folder holds a checkpoint to resume from.
+fn has_checkpoint(staging: &Path) -> bool {
+    std::fs::read_dir(checkpoint_dir(staging)).is_ok_and(|mut d| d.next().is_some())
 }

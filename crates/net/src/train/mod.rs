@@ -96,51 +96,53 @@ pub fn train(
             seq.len()
         )));
     }
-    let staging = target.prepare()?;
-    let ckpt = checkpoint_dir(&staging);
+    target.run(|staging| {
+        let ckpt = checkpoint_dir(staging);
 
-    let t_load = Instant::now();
-    let (cache, pass_zones, pass_frames) = data::load_training(cfg, seq, zones, camera, progress)?;
-    let load_s = t_load.elapsed().as_secs_f64();
+        let t_load = Instant::now();
+        let (cache, pass_zones, pass_frames) =
+            data::load_training(cfg, seq, zones, camera, progress)?;
+        let load_s = t_load.elapsed().as_secs_f64();
 
-    let val_set = data::validation_set(cfg, seq, zones)?;
-    let fitted = fit(
-        cfg,
-        &cache,
-        &pass_zones,
-        val_set.as_ref(),
-        Some(&ckpt),
-        target.resume,
-        progress,
-    )?;
+        let val_set = data::validation_set(cfg, seq, zones)?;
+        let fitted = fit(
+            cfg,
+            &cache,
+            &pass_zones,
+            val_set.as_ref(),
+            Some(&ckpt),
+            target.resume,
+            progress,
+        )?;
 
-    let t_desc = Instant::now();
-    let net = fitted.net.valid();
-    let (rows, whitening) = output::database_rows(cfg, &net, &cache, seq, &staging, progress)?;
-    let describe_s = t_desc.elapsed().as_secs_f64();
-    let dim = cfg.backbone.descriptor_dim();
-    let db = DescriptorDatabase::new(dim, zones.len(), rows, zones.zone_of_frame.clone())?;
-    progress(&TrainProgress::outside_training(Phase::Saving, 0, 1));
-    let source = ModelSource {
-        cfg,
-        seq,
-        zones,
-        camera,
-        dataset,
-        whitening,
-        history: &fitted.history,
-    };
-    output::write_model(&staging, &source, &net, &db)?;
-    discard_checkpoint(&ckpt)?;
-    model::publish(&staging, &target.dir, target.force)?;
-    Ok(TrainReport {
-        model_dir: target.dir.clone(),
-        history: fitted.history,
-        resumed_after_epoch: fitted.resumed_after_epoch,
-        pass_frames,
-        load_s,
-        train_s: fitted.train_s,
-        describe_s,
-        steps: fitted.steps,
+        let t_desc = Instant::now();
+        let net = fitted.net.valid();
+        let (rows, whitening) = output::database_rows(cfg, &net, &cache, seq, staging, progress)?;
+        let describe_s = t_desc.elapsed().as_secs_f64();
+        let dim = cfg.backbone.descriptor_dim();
+        let db = DescriptorDatabase::new(dim, zones.len(), rows, zones.zone_of_frame.clone())?;
+        progress(&TrainProgress::outside_training(Phase::Saving, 0, 1));
+        let source = ModelSource {
+            cfg,
+            seq,
+            zones,
+            camera,
+            dataset,
+            whitening,
+            history: &fitted.history,
+        };
+        output::write_model(staging, &source, &net, &db)?;
+        discard_checkpoint(&ckpt)?;
+        model::publish(staging, &target.dir, target.force)?;
+        Ok(TrainReport {
+            model_dir: target.dir.clone(),
+            history: fitted.history,
+            resumed_after_epoch: fitted.resumed_after_epoch,
+            pass_frames,
+            load_s,
+            train_s: fitted.train_s,
+            describe_s,
+            steps: fitted.steps,
+        })
     })
 }
