@@ -127,6 +127,10 @@ pub(crate) fn save(
         frames,
         zones,
     };
+    // Batch-norm running statistics hold their latest update per thread until synchronised,
+    // and saving reads the synchronised value only: synchronise first (`valid()` does, on the
+    // shared state), or a resumed run starts from stale statistics and ends elsewhere.
+    let _ = learner.net.valid();
     write_files(dir, &learner.net, &learner.optim, &state)
 }
 
