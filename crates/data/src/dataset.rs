@@ -130,11 +130,8 @@ impl DatasetMeta {
     /// [`DataError::Parse`] naming the line and what was expected.
     pub fn from_toml_str(path: &Path, text: &str) -> Result<Self, DataError> {
         toml::from_str::<DatasetMeta>(text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
-                .unwrap_or(0);
-            DataError::parse(path, line, e.message().trim().to_string())
+            let (line, message) = crate::toml_error_line(text, &e);
+            DataError::parse(path, line, message)
         })
     }
 

@@ -94,6 +94,15 @@ impl DataError {
     }
 }
 
+/// Where a TOML error is and what it says, for one-line messages: the 1-based line of its
+/// span (0 when it has none) and the message without the quoted source excerpt.
+pub fn toml_error_line(text: &str, e: &toml::de::Error) -> (usize, String) {
+    let line = e.span().map_or(0, |s| {
+        text[..s.start.min(text.len())].matches('\n').count() + 1
+    });
+    (line, e.message().trim().to_string())
+}
+
 /// `path:line` (or just `path` when the line is 0), the way compilers name a place in a file.
 pub(crate) struct Located<'a>(pub &'a Path, pub usize);
 

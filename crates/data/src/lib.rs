@@ -30,7 +30,7 @@ pub use dataset::{
     Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, MASK_FILE, Sequence, SequenceWriter,
     write_dataset_mask,
 };
-pub use error::DataError;
+pub use error::{DataError, toml_error_line};
 pub use fingerprint::{Fingerprint, poses_fingerprint};
 pub use fsutil::write_atomic;
 pub use gca::{GcaModelFiles, find_gca_model};

@@ -89,7 +89,8 @@ impl FeaturesJob {
                 let text = std::fs::read_to_string(path)
                     .with_context(|| format!("reading {}", path.display()))?;
                 toml::from_str::<SurfConfig>(&text).map_err(|e| {
-                    JobError::Invalid(format!("parsing {} as SurfConfig: {e}", path.display()))
+                    let (line, message) = endoloc_data::toml_error_line(&text, &e);
+                    JobError::Invalid(format!("{}:{line}: {message}", path.display()))
                 })?
             }
             None => SurfConfig::default(),

@@ -8,7 +8,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::bail;
-use crate::error::{Context, Result};
+use crate::error::{Context, JobError, Result};
 use crate::localize::RunSummary;
 use crate::output::{create_dir, replace_folder};
 use crate::progress::Progress;
@@ -117,7 +117,10 @@ impl RunJob {
     /// # Errors
     /// An unreadable file, or TOML that does not describe a run (unknown keys are named).
     pub fn from_toml(text: &str) -> Result<Self> {
-        let job: RunJob = toml::from_str(text)?;
+        let job: RunJob = toml::from_str(text).map_err(|e| {
+            let (line, message) = endoloc_data::toml_error_line(text, &e);
+            JobError::Invalid(format!("line {line}: {message}"))
+        })?;
         if job.data.is_some() == job.simulate.is_some() {
             bail!("give exactly one of `data = \"DATASET\"` or a [simulate] table");
         }

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::bail;
 use crate::baselines::{Regressor, RegressorSettings, train_regressor};
-use crate::error::{Context, Result};
+use crate::error::{Context, JobError, Result};
 use crate::progress::Progress;
 
 /// What a `TrainJob` trains.
@@ -273,7 +273,10 @@ impl TrainJob {
             Some(p) => {
                 let text = std::fs::read_to_string(p)
                     .with_context(|| format!("reading {}", p.display()))?;
-                toml::from_str::<TrainConfig>(&text).with_context(|| format!("{}", p.display()))?
+                toml::from_str::<TrainConfig>(&text).map_err(|e| {
+                    let (line, message) = endoloc_data::toml_error_line(&text, &e);
+                    JobError::Invalid(format!("{}:{line}: {message}", p.display()))
+                })?
             }
             None => TrainConfig {
                 backbone: BackboneConfig::from_name(&args.backbone)?,

@@ -647,8 +647,11 @@ pub(super) fn image_block(path: &Path, caption: &str, progress: &dyn Progress) -
 /// before any input is read ([`create_out`] makes it once the inputs open).
 pub(super) fn prepare_out(out: &Path, marker: &str, force: bool) -> Result<()> {
     if out.exists() && !force {
-        let m = out.join(marker);
-        let is_same = m.is_file();
+        // The marker file, or the tag `create_out` leaves at once (a run killed before its
+        // first result is resumed too).
+        let tagged =
+            std::fs::read_to_string(out.join(EXPERIMENT_TAG)).is_ok_and(|t| t.trim() == marker);
+        let is_same = out.join(marker).is_file() || tagged;
         let empty = std::fs::read_dir(out)
             .map(|mut d| d.next().is_none())
             .unwrap_or(false);
@@ -663,10 +666,16 @@ pub(super) fn prepare_out(out: &Path, marker: &str, force: bool) -> Result<()> {
     Ok(())
 }
 
-/// Creates the output folder that [`prepare_out`] allowed, once the inputs have been opened:
-/// bad input leaves no folder behind.
-pub(super) fn create_out(out: &Path) -> Result<()> {
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))
+/// Hidden file that says which experiment a folder belongs to (its marker's name).
+const EXPERIMENT_TAG: &str = ".endoloc-experiment";
+
+/// Creates the output folder that [`prepare_out`] allowed, once the inputs have been opened
+/// (bad input leaves no folder behind), tagged with the experiment's `marker` so that a run
+/// killed before its first result can be resumed.
+pub(super) fn create_out(out: &Path, marker: &str) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    endoloc_data::write_atomic(&out.join(EXPERIMENT_TAG), format!("{marker}\n").as_bytes())?;
+    Ok(())
 }
 
 /// Position error (mm) and orientation error (degrees, geodesic angle of `R_estᵀ R_gt`) of

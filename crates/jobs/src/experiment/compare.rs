@@ -173,7 +173,7 @@ impl CompareJob {
         let args = self;
         common::prepare_out(&args.out, "compare.toml", args.force)?;
         let data = Data::from_args(&args.data)?;
-        common::create_out(&args.out)?;
+        common::create_out(&args.out, "compare.toml")?;
         let methods = if args.methods.is_empty() {
             Method::all()
         } else {

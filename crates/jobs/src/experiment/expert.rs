@@ -100,7 +100,7 @@ impl ExpertJob {
         let args = self;
         common::prepare_out(&args.out, "expert.md", args.force)?;
         let data = Data::from_args(&args.data)?;
-        common::create_out(&args.out)?;
+        common::create_out(&args.out, "expert.md")?;
         if data.test.is_empty() {
             bail!("empty test sequence");
         }

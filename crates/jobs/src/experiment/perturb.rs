@@ -102,7 +102,7 @@ impl PerturbJob {
         let args = self;
         common::prepare_out(&args.out, "perturb.md", args.force)?;
         let data = Data::from_args(&args.data)?;
-        common::create_out(&args.out)?;
+        common::create_out(&args.out, "perturb.md")?;
         let model = args
             .model
             .clone()

@@ -180,7 +180,7 @@ impl ZoneSweepJob {
         }
         common::prepare_out(&args.out, RESULTS, args.force)?;
         let data = Data::from_args(&args.data)?;
-        common::create_out(&args.out)?;
+        common::create_out(&args.out, RESULTS)?;
         let results_path = args.out.join(RESULTS);
         let mut rows = read_results(&results_path)?;
         let counts: Vec<usize> = (args.from..=args.to).step_by(args.step).collect();

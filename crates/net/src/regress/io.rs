@@ -99,10 +99,8 @@ impl RegressModelFile {
         let path = dir.join(REGRESS_FILE);
         let text = std::fs::read_to_string(&path).map_err(|e| NetError::io(&path, e))?;
         let file: RegressModelFile = toml::from_str(&text).map_err(|e| {
-            let line = e.span().map_or(0, |s| {
-                text[..s.start.min(text.len())].lines().count().max(1)
-            });
-            NetError::parse(&path, line, e.message().to_string())
+            let (line, message) = endoloc_data::toml_error_line(&text, &e);
+            NetError::parse(&path, line, message)
         })?;
         if file.format_version != FORMAT_VERSION {
             return Err(NetError::parse(
