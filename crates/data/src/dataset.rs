@@ -385,6 +385,8 @@ impl DatasetWriter {
             .map_err(|m| DataError::invalid(dir.join(META_FILE), m))?;
         let parent = parent_dir(dir);
         std::fs::create_dir_all(&parent).map_err(|e| DataError::io(&parent, e))?;
+        // Staging folders of killed runs are tidied away before a new one is made.
+        crate::fsutil::remove_stale_siblings(dir, "staging");
         let staging = hidden_sibling(dir, "staging");
         std::fs::create_dir(&staging).map_err(|e| DataError::io(&staging, e))?;
         Ok(DatasetWriter {

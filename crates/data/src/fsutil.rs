@@ -23,6 +23,35 @@ pub(crate) fn hidden_sibling(path: &Path, tag: &str) -> PathBuf {
     }
 }
 
+/// Removes the hidden `.NAME.TAG-PID-N` siblings of `path` ([`hidden_sibling`]) left by
+/// processes that no longer run (a killed `simulate`, say). Processes are looked up in
+/// `/proc`; where there is none (not Linux) nothing is removed. Errors are ignored: this is
+/// tidying, not part of the job.
+pub(crate) fn remove_stale_siblings(path: &Path, tag: &str) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        return;
+    };
+    let prefix = format!(".{name}.{tag}-");
+    let Ok(entries) = std::fs::read_dir(parent_dir(path)) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file = entry.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file.strip_prefix(&prefix) else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
+}
+
 /// The folder a path lives in, `.` for a bare file name.
 pub(crate) fn parent_dir(path: &Path) -> PathBuf {
     match path.parent() {
@@ -91,6 +120,25 @@ mod tests {
             .collect();
         v.sort();
         v
+    }
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn staging_folders_of_dead_processes_are_removed_and_live_ones_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("data");
+        // No process has a number above the kernel's pid_max (at most 4194304).
+        let dead = dir.path().join(".data.staging-4294967-0");
+        let live = dir
+            .path()
+            .join(format!(".data.staging-{}-3", std::process::id()));
+        let other = dir.path().join(".other.staging-4294967-0");
+        for d in [&dead, &live, &other] {
+            std::fs::create_dir_all(d.join("train")).unwrap();
+        }
+        remove_stale_siblings(&out, "staging");
+        assert!(!dead.exists());
+        assert!(live.exists() && other.exists());
     }
 
     #[test]
