@@ -982,7 +982,7 @@ impl Sequence {
             return Err(DataError::image(
                 path,
                 format!(
-                    "image is {}x{}; expected the camera's {w}x{h} (dataset.toml)",
+                    "{}x{} pixels; expected the camera's {w}x{h} (dataset.toml)",
                     img.width(),
                     img.height()
                 ),

@@ -10,7 +10,7 @@ static COUNTER: AtomicU64 = AtomicU64::new(0);
 
 /// A hidden path next to `path` (same folder, so a rename is atomic), unique within this
 /// process and across processes: `.NAME.TAG-PID-N`.
-pub(crate) fn hidden_sibling(path: &Path, tag: &str) -> PathBuf {
+pub fn hidden_sibling(path: &Path, tag: &str) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -27,7 +27,7 @@ pub(crate) fn hidden_sibling(path: &Path, tag: &str) -> PathBuf {
 /// processes that no longer run (a killed `simulate`, say). Processes are looked up in
 /// `/proc`; where there is none (not Linux) nothing is removed. Errors are ignored: this is
 /// tidying, not part of the job.
-pub(crate) fn remove_stale_siblings(path: &Path, tag: &str) {
+pub fn remove_stale_siblings(path: &Path, tag: &str) {
     if !Path::new("/proc/self").exists() {
         return;
     }
@@ -89,7 +89,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DataError> {
 
 /// Flushes a folder's entries (new names, renames) to disk; best effort, as not every
 /// platform can open a folder for syncing.
-pub(crate) fn sync_dir(dir: &Path) {
+pub fn sync_dir(dir: &Path) {
     if let Ok(f) = File::open(dir) {
         let _ = f.sync_all();
     }

@@ -747,7 +747,7 @@ fn catalogue() -> Vec<Case> {
         ),
         case(
             "output folder under a file (localize)",
-            &["blocker", "Not a directory"],
+            &["blocker: is a file, not a folder"],
             |fx, d| {
                 write(&d.join("blocker"), "a file");
                 args(&[

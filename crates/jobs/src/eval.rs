@@ -156,11 +156,14 @@ impl EvalJob {
         })?;
         let out = self.out_dir();
         let shown = |p: &Path| p.display().to_string();
+        // Written next to `out` first, then moved in together: a killed run leaves the
+        // earlier results as they were.
+        let staged = crate::output::StagedFiles::new(&out)?;
         let written = write_results(
             &evaluation,
-            &out,
+            staged.dir(),
             &WriteOptions {
-                force: self.force,
+                force: true,
                 no_plots: self.no_plots,
                 plot: Default::default(),
                 sources: Sources {
@@ -171,12 +174,27 @@ impl EvalJob {
                 },
             },
         )?;
+        let names: Vec<std::ffi::OsString> = written
+            .files
+            .iter()
+            .filter_map(|f| f.file_name().map(|n| n.to_os_string()))
+            .collect();
+        if !self.force
+            && let Some(name) = names.iter().find(|n| out.join(n).exists())
+        {
+            return Err(endoloc_eval::EvalError::AlreadyExists {
+                path: out.join(name),
+            }
+            .into());
+        }
+        staged.publish()?;
+        let files = names.iter().map(|n| out.join(n)).collect();
         if !self.no_plots && !written.plot_text {
             progress.note("warning: no usable system font (fontconfig): plots drawn without text");
         }
         Ok(EvalReport {
             evaluation,
-            files: written.files,
+            files,
             out,
         })
     }

@@ -239,9 +239,7 @@ impl LocalizeJob {
             if !self.also_model.is_empty() {
                 bail!("also_model (--also-model) joins zone models for the endoloc method only");
             }
-            let report = self.run_baseline(progress)?;
-            self.save(&self.out)?;
-            return Ok(report);
+            return self.run_baseline(progress);
         }
         let localizer = self.localizer()?.with_mask(dataset_mask(&self.seq)?);
         let seq = Sequence::open(&self.seq)?;
@@ -304,8 +302,10 @@ impl LocalizeJob {
             }
         };
         let wall_s = t.elapsed().as_secs_f64();
-        write_results(&self.out, &seq, &frames)?;
-        self.save(&self.out)?;
+        let staged = crate::output::StagedFiles::new(&self.out)?;
+        write_result_files(&staged, &seq, &frames)?;
+        self.save_to(&staged.path(LOCALIZE_FILE))?;
+        staged.publish()?;
         let with_pose = frames.iter().filter(|r| r.t_wc.is_some()).count();
         Ok(LocalizeReport {
             frame_count: n,
@@ -324,8 +324,12 @@ impl LocalizeJob {
     /// # Errors
     /// A file that cannot be written.
     pub fn save(&self, dir: &Path) -> Result<()> {
+        self.save_to(&dir.join(LOCALIZE_FILE))
+    }
+
+    fn save_to(&self, path: &Path) -> Result<()> {
         let text = toml::to_string_pretty(self)?;
-        endoloc_data::write_atomic(&dir.join(LOCALIZE_FILE), text.as_bytes())?;
+        endoloc_data::write_atomic(path, text.as_bytes())?;
         Ok(())
     }
 
@@ -394,9 +398,11 @@ impl LocalizeJob {
             LocalizeMethod::Vo => baselines::vo(&camera, dataset_mask(&self.seq)?, &seq, progress)?,
             LocalizeMethod::Endoloc => unreachable!("endoloc is not a baseline"),
         };
-        crate::output::create_dir(&self.out)?;
+        let staged = crate::output::StagedFiles::new(&self.out)?;
         let trajectory = stamped(&seq, est.poses.iter().copied());
-        endoloc_data::write_tum(&self.out.join("trajectory.txt"), &trajectory)?;
+        endoloc_data::write_tum(&staged.path("trajectory.txt"), &trajectory)?;
+        self.save_to(&staged.path(LOCALIZE_FILE))?;
+        staged.publish()?;
         Ok(LocalizeReport {
             frames: Vec::new(),
             frame_count: seq.len(),
@@ -491,16 +497,26 @@ fn stamped(
         .collect()
 }
 
-/// Writes `trajectory.txt`, `frames.csv` and `inliers.csv` of a localization run into `out`.
+/// Writes `trajectory.txt`, `frames.csv` and `inliers.csv` of a localization run into `out`
+/// (staged next to it and moved in together, [`crate::output::StagedFiles`]).
 ///
 /// # Errors
 /// A folder or file that cannot be written.
 pub fn write_results(out: &Path, seq: &Sequence, results: &[FrameResult]) -> Result<()> {
-    crate::output::create_dir(out)?;
+    let staged = crate::output::StagedFiles::new(out)?;
+    write_result_files(&staged, seq, results)?;
+    staged.publish()
+}
+
+fn write_result_files(
+    staged: &crate::output::StagedFiles,
+    seq: &Sequence,
+    results: &[FrameResult],
+) -> Result<()> {
     let trajectory = stamped(seq, results.iter().map(|r| r.t_wc));
-    endoloc_data::write_tum(&out.join("trajectory.txt"), &trajectory)?;
-    write_frames_csv(&out.join("frames.csv"), &frame_records(results))?;
-    endoloc_data::write_atomic(&out.join(INLIERS_FILE), inliers_csv(results).as_bytes())?;
+    endoloc_data::write_tum(&staged.path("trajectory.txt"), &trajectory)?;
+    write_frames_csv(&staged.path("frames.csv"), &frame_records(results))?;
+    endoloc_data::write_atomic(&staged.path(INLIERS_FILE), inliers_csv(results).as_bytes())?;
     Ok(())
 }
 
