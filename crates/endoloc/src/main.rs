@@ -18,7 +18,15 @@ use clap::{Parser, Subcommand};
 /// Typical flow: `simulate` (or import) a dataset with known poses, inspect it with
 /// `dataset info`/`dataset check`, then train, map, localize and evaluate.
 #[derive(Debug, Parser)]
-#[command(name = "endoloc", version, about, long_about = None, propagate_version = true)]
+#[command(
+    name = "endoloc",
+    version,
+    about,
+    long_about = None,
+    propagate_version = true,
+    after_help = "Exit status: 0 done; 2 bad input, settings or output folder (one message names \
+                  the file, the line and what was expected; nothing is written); 101 a bug."
+)]
 struct Cli {
     /// More log output (-v info, -vv debug); errors and warnings are always shown.
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
