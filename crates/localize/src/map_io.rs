@@ -107,18 +107,39 @@ pub fn load_map(dir: &Path) -> Result<Map, LocalizeError> {
     std::fs::File::open(&bin_path)
         .and_then(|mut f| f.read_to_end(&mut bytes))
         .map_err(|e| file_err(&bin_path, e))?;
+    map_from_parts(meta, &bin_path, &bytes)
+}
+
+/// Parses a map from the text of its `map.toml` and the bytes of its `map.bin` (see
+/// [`load_map`]); the paths name the files in errors.
+///
+/// # Errors
+/// [`LocalizeError::File`] for TOML that does not describe a map, or a truncated or foreign
+/// `map.bin` (naming the file and what was expected).
+pub fn parse_map(
+    toml_path: &Path,
+    toml_text: &str,
+    bin_path: &Path,
+    bin_bytes: &[u8],
+) -> Result<Map, LocalizeError> {
+    let meta: MapMeta = toml::from_str(toml_text).map_err(|e| file_err(toml_path, e))?;
+    map_from_parts(meta, bin_path, bin_bytes)
+}
+
+/// The map of `meta` with the points of `map.bin`'s `bytes`.
+fn map_from_parts(meta: MapMeta, bin_path: &Path, bytes: &[u8]) -> Result<Map, LocalizeError> {
     let mut r = Reader {
-        bytes: &bytes,
+        bytes,
         pos: 0,
-        path: &bin_path,
+        path: bin_path,
     };
     if r.take(MAGIC.len())? != MAGIC {
-        return Err(file_err(&bin_path, "not an endoloc map file (bad magic)"));
+        return Err(file_err(bin_path, "not an endoloc map file (bad magic)"));
     }
     let version = r.u32()?;
     if version != VERSION {
         return Err(file_err(
-            &bin_path,
+            bin_path,
             format!("map format {version}, expected {VERSION}"),
         ));
     }

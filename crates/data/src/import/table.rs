@@ -12,7 +12,7 @@
 
 use super::parse_field;
 use crate::DataError;
-use crate::fsutil::read_text;
+use crate::fsutil::text_from_bytes;
 use std::path::{Path, PathBuf};
 
 /// Where the rows of a [`Table`] come from.
@@ -67,15 +67,26 @@ impl Table {
     /// cell count differs from the header's; [`DataError::Invalid`] for an unreadable
     /// workbook, a missing sheet, or an `.xlsx` when built without the `xlsx` feature.
     pub fn read(path: &Path, sheet: Option<&str>, prefer_column: &str) -> Result<Self, DataError> {
-        if is_xlsx(path) {
-            return read_xlsx(path, sheet, prefer_column);
-        }
-        Self::read_csv(path)
+        let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+        Self::parse(path, bytes, sheet, prefer_column)
     }
 
-    /// Reads a CSV text file (`,`, `;` or tab separated; quotes around cells stripped).
-    fn read_csv(path: &Path) -> Result<Self, DataError> {
-        let text = read_text(path)?;
+    /// [`Table::read`] of a file's bytes; `path` gives the format (by its extension) and
+    /// names the file in errors.
+    pub fn parse(
+        path: &Path,
+        bytes: Vec<u8>,
+        sheet: Option<&str>,
+        prefer_column: &str,
+    ) -> Result<Self, DataError> {
+        if is_xlsx(path) {
+            return parse_xlsx(path, bytes, sheet, prefer_column);
+        }
+        Self::parse_csv(path, &text_from_bytes(path, bytes)?)
+    }
+
+    /// Parses CSV text (`,`, `;` or tab separated; quotes around cells stripped).
+    fn parse_csv(path: &Path, text: &str) -> Result<Self, DataError> {
         let mut lines = text
             .lines()
             .enumerate()
@@ -224,9 +235,13 @@ impl Table {
 
 /// Reads one worksheet of an `.xlsx` workbook as a [`Table`].
 #[cfg(feature = "xlsx")]
-fn read_xlsx(path: &Path, sheet: Option<&str>, prefer_column: &str) -> Result<Table, DataError> {
+fn parse_xlsx(
+    path: &Path,
+    bytes: Vec<u8>,
+    sheet: Option<&str>,
+    prefer_column: &str,
+) -> Result<Table, DataError> {
     use calamine::{Data, Reader, Xlsx};
-    let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
     let unreadable = |what: String| {
         DataError::invalid(
             path,
@@ -351,7 +366,12 @@ fn table_from_range(
 
 /// Without the `xlsx` feature: an error telling how to proceed.
 #[cfg(not(feature = "xlsx"))]
-fn read_xlsx(path: &Path, _sheet: Option<&str>, _prefer: &str) -> Result<Table, DataError> {
+fn parse_xlsx(
+    path: &Path,
+    _bytes: Vec<u8>,
+    _sheet: Option<&str>,
+    _prefer: &str,
+) -> Result<Table, DataError> {
     Err(DataError::invalid(
         path,
         "this build cannot read .xlsx workbooks (endoloc-data without the `xlsx` feature); export the sheet to CSV (e.g. `libreoffice --headless --convert-to csv FILE.xlsx`) and give the .csv",
