@@ -177,8 +177,14 @@ impl Whitening {
                 "whitens descriptors of length {stored}; the backbone makes {dim}"
             )));
         }
-        let expected = binfile::HEADER + 4 * (dim + dim * dim);
-        if bytes.len() != expected {
+        if dim == 0 {
+            return Err(bad(
+                "whitens descriptors of length 0; expected a positive length".to_string(),
+            ));
+        }
+        // In u128: a damaged header's length must not overflow.
+        let expected = binfile::HEADER as u128 + 4 * (dim as u128 + dim as u128 * dim as u128);
+        if bytes.len() as u128 != expected {
             return Err(bad(format!(
                 "{} bytes; expected {expected} for descriptors of length {dim}",
                 bytes.len()
