@@ -24,14 +24,22 @@ use std::path::Path;
 /// a point without 3 coordinates, `n` not matching; [`DataError::Invalid`] for an unknown
 /// extension or an empty path; [`DataError::Io`].
 pub fn read_path(path: &Path) -> Result<Vec<Point3<f64>>, DataError> {
+    parse_path(path, &read_text(path)?)
+}
+
+/// Parses the text of a mid-line path file, in the format of `path`'s extension (see
+/// [`read_path`]); `path` names the file in errors.
+///
+/// # Errors
+/// As [`read_path`], without [`DataError::Io`].
+pub fn parse_path(path: &Path, text: &str) -> Result<Vec<Point3<f64>>, DataError> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let text = read_text(path)?;
     let points = match ext.as_str() {
-        "jsn" | "json" => parse_path_json(path, &text)?,
-        "csv" | "txt" => parse_path_csv(path, &text)?,
+        "jsn" | "json" => parse_path_json(path, text)?,
+        "csv" | "txt" => parse_path_csv(path, text)?,
         _ => {
             return Err(DataError::invalid(
                 path,
@@ -236,8 +244,16 @@ pub struct Landmark {
 /// 0, naming the landmark's index); [`DataError::Invalid`] when no landmark is abbreviated
 /// `anus`; [`DataError::Io`].
 pub fn read_gca_landmarks(path: &Path) -> Result<Vec<Landmark>, DataError> {
-    let text = read_text(path)?;
-    let root: serde_json::Value = serde_json::from_str(&text)
+    parse_gca_landmarks(path, &read_text(path)?)
+}
+
+/// Parses the text of a GCA model configuration JSON (see [`read_gca_landmarks`]); `path`
+/// names the file in errors.
+///
+/// # Errors
+/// As [`read_gca_landmarks`], without [`DataError::Io`].
+pub fn parse_gca_landmarks(path: &Path, text: &str) -> Result<Vec<Landmark>, DataError> {
+    let root: serde_json::Value = serde_json::from_str(text)
         .map_err(|e| DataError::parse(path, e.line(), format!("{e}; expected a GCA model JSON")))?;
     let entries = root
         .get("landmarks")

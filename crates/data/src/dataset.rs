@@ -16,7 +16,9 @@
 //! leaves a half-written dataset at the destination. [`Dataset`] and [`Sequence`] read one.
 
 use crate::fsutil::{hidden_sibling, parent_dir, read_text, sync_dir, write_atomic};
-use crate::png_io::{check_len, decode, decode_depth_mm, depth_code_from_mm, write_png};
+use crate::png_io::{
+    check_len, decode, decode_depth_mm, decode_png, depth_code_from_mm, write_png,
+};
 use crate::sections_csv::{read_sections, write_sections};
 use crate::trajectory::{StampedPose, read_tum, write_tum};
 use crate::{DataError, Section};
@@ -280,6 +282,22 @@ fn check_mask(path: &Path, mask: &image::GrayImage, camera: &Camera) -> Result<(
         ));
     }
     Ok(())
+}
+
+/// Decodes the bytes of a dataset's mask PNG (see [`Dataset::load_mask`]) and checks it
+/// against `camera`; `path` names the file in errors.
+///
+/// # Errors
+/// [`DataError::Image`] for bytes that are not a PNG; [`DataError::Invalid`] when its size is
+/// not the camera's or no pixel is valid.
+pub fn mask_from_png(
+    path: &Path,
+    bytes: &[u8],
+    camera: &Camera,
+) -> Result<image::GrayImage, DataError> {
+    let img = decode_png(path, bytes)?.into_luma8();
+    check_mask(path, &img, camera)?;
+    Ok(img)
 }
 
 /// Writes a mask as an 8-bit grey PNG.
@@ -818,10 +836,8 @@ impl Dataset {
         let Some(path) = self.mask_path() else {
             return Ok(None);
         };
-        let img = decode(&path)?.to_luma8();
-        let c = &self.meta.camera;
-        check_mask(&path, &img, c)?;
-        Ok(Some(img))
+        let bytes = std::fs::read(&path).map_err(|e| DataError::io(&path, e))?;
+        mask_from_png(&path, &bytes, &self.meta.camera).map(Some)
     }
 
     /// Loads sequence `name`: its poses, image list, sections and depth list.

@@ -101,6 +101,14 @@ pub fn sync_dir(dir: &Path) {
 /// [`DataError::Io`] when the file cannot be read, [`DataError::Parse`] when it is not UTF-8.
 pub(crate) fn read_text(path: &Path) -> Result<String, DataError> {
     let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+    text_from_bytes(path, bytes)
+}
+
+/// A text file's bytes as a `String`; `path` names the file in the error.
+///
+/// # Errors
+/// [`DataError::Parse`] at the line of the first byte that is not UTF-8.
+pub(crate) fn text_from_bytes(path: &Path, bytes: Vec<u8>) -> Result<String, DataError> {
     String::from_utf8(bytes).map_err(|e| {
         let upto = e.utf8_error().valid_up_to();
         let line = e.as_bytes()[..upto].iter().filter(|&&b| b == b'\n').count() + 1;

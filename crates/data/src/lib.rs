@@ -22,13 +22,14 @@ pub mod trajectory;
 
 pub use anatomy::Section;
 pub use centerline::{
-    EstimatedLandmark, Landmark, SectionCut, SectionRange, cumulative_length, read_gca_landmarks,
-    read_path, section_cut, section_ranges, sections_from_landmarks,
+    EstimatedLandmark, Landmark, SectionCut, SectionRange, cumulative_length, parse_gca_landmarks,
+    parse_path, read_gca_landmarks, read_path, section_cut, section_ranges,
+    sections_from_landmarks,
 };
 pub use check::{CheckReport, Problem, check_dataset};
 pub use dataset::{
     Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, MASK_FILE, Sequence, SequenceWriter,
-    write_dataset_mask,
+    mask_from_png, write_dataset_mask,
 };
 pub use error::{DataError, toml_error_line};
 pub use fingerprint::{Fingerprint, poses_fingerprint};
@@ -36,6 +37,8 @@ pub use fsutil::write_atomic;
 pub use gca::{GcaModelFiles, find_gca_model};
 pub use info::{DatasetInfo, SequenceInfo, dataset_info};
 pub use mesh::{TriMesh, read_mesh};
-pub use png_io::{MAX_DEPTH_MM, depth_code_from_mm, depth_mm_from_code};
-pub use sections_csv::{read_sections, write_sections};
-pub use trajectory::{StampedPose, read_tum, write_tum};
+pub use png_io::{
+    MAX_DEPTH_MM, decode_png, depth_code_from_mm, depth_mm_from_code, depth_mm_from_png,
+};
+pub use sections_csv::{parse_sections, read_sections, write_sections};
+pub use trajectory::{StampedPose, parse_tum, read_tum, write_tum};

@@ -3,7 +3,7 @@
 use crate::DataError;
 use image::DynamicImage;
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Write};
+use std::io::{BufWriter, Cursor, Write};
 use std::path::Path;
 
 /// Depth scale of the dataset format: stored value = round(depth_mm × 100).
@@ -76,10 +76,19 @@ pub(crate) fn check_len(
     Ok(())
 }
 
-/// Decodes any supported image file (fully, so a corrupt file is found).
+/// Decodes a dataset PNG file (fully, so a corrupt file is found).
 pub(crate) fn decode(path: &Path) -> Result<DynamicImage, DataError> {
-    let file = File::open(path).map_err(|e| DataError::io(path, e))?;
-    let mut reader = image::ImageReader::new(BufReader::new(file));
+    let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+    decode_png(path, &bytes)
+}
+
+/// Decodes the bytes of a dataset PNG (8-bit grey or RGB image, 16-bit depth, mask), fully,
+/// so that a corrupt file is found; `path` names the file in errors.
+///
+/// # Errors
+/// [`DataError::Image`] for bytes that are not a PNG the decoder reads.
+pub fn decode_png(path: &Path, bytes: &[u8]) -> Result<DynamicImage, DataError> {
+    let mut reader = image::ImageReader::new(Cursor::new(bytes));
     reader.set_format(image::ImageFormat::Png);
     reader
         .decode()
@@ -88,7 +97,17 @@ pub(crate) fn decode(path: &Path) -> Result<DynamicImage, DataError> {
 
 /// Decodes a 16-bit grey depth PNG into mm (0 = no depth); returns `(width, height, depth_mm)`.
 pub(crate) fn decode_depth_mm(path: &Path) -> Result<(u32, u32, Vec<f32>), DataError> {
-    match decode(path)? {
+    let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+    depth_mm_from_png(path, &bytes)
+}
+
+/// Decodes the bytes of a 16-bit grey depth PNG (value = mm × 100) into mm, 0 where there is
+/// no depth; returns `(width, height, depth_mm)`, row-major. `path` names the file in errors.
+///
+/// # Errors
+/// [`DataError::Image`] for bytes that are not a PNG, or a PNG that is not 16-bit grey.
+pub fn depth_mm_from_png(path: &Path, bytes: &[u8]) -> Result<(u32, u32, Vec<f32>), DataError> {
+    match decode_png(path, bytes)? {
         DynamicImage::ImageLuma16(img) => {
             let (w, h) = img.dimensions();
             let d = img.into_raw().into_iter().map(depth_mm_from_code).collect();

@@ -71,8 +71,15 @@ pub(crate) fn parse_sections_text(text: &str) -> (Vec<Option<Section>>, Vec<(usi
 /// # Errors
 /// [`DataError::Io`] if unreadable; [`DataError::Parse`] naming the first bad line.
 pub fn read_sections(path: &Path) -> Result<Vec<Section>, DataError> {
-    let text = read_text(path)?;
-    let (rows, problems) = parse_sections_text(&text);
+    parse_sections(path, &read_text(path)?)
+}
+
+/// Parses the text of `sections.csv` (see [`read_sections`]); `path` names the file in errors.
+///
+/// # Errors
+/// [`DataError::Parse`] naming the first bad line.
+pub fn parse_sections(path: &Path, text: &str) -> Result<Vec<Section>, DataError> {
+    let (rows, problems) = parse_sections_text(text);
     if let Some((line, message)) = problems.into_iter().next() {
         return Err(DataError::parse(path, line, message));
     }

@@ -100,8 +100,16 @@ pub(crate) fn parse_tum_text(text: &str) -> Result<Vec<StampedPose>, (usize, Str
 /// [`DataError::Io`] if the file cannot be read; [`DataError::Parse`] naming the first bad
 /// line and what was expected.
 pub fn read_tum(path: &Path) -> Result<Vec<StampedPose>, DataError> {
-    let text = read_text(path)?;
-    parse_tum_text(&text).map_err(|(line, message)| DataError::parse(path, line, message))
+    parse_tum(path, &read_text(path)?)
+}
+
+/// Parses the text of a TUM trajectory file (see [`read_tum`]); `path` names the file in
+/// errors.
+///
+/// # Errors
+/// [`DataError::Parse`] naming the first bad line and what was expected.
+pub fn parse_tum(path: &Path, text: &str) -> Result<Vec<StampedPose>, DataError> {
+    parse_tum_text(text).map_err(|(line, message)| DataError::parse(path, line, message))
 }
 
 /// Formats poses as TUM text with a header comment (see [`write_tum`]).

@@ -543,6 +543,16 @@ pub fn inliers_csv(results: &[FrameResult]) -> String {
 /// its line.
 pub fn read_inliers_csv(path: &Path, frames: usize) -> Result<Vec<Vec<[f32; 2]>>> {
     let text = std::fs::read_to_string(path).map_err(|e| JobError::io(path, e))?;
+    parse_inliers_csv(path, &text, frames)
+}
+
+/// Parses the text of an `inliers.csv` (see [`read_inliers_csv`]); `path` names the file in
+/// errors.
+///
+/// # Errors
+/// A row that is not `frame,x_px,y_px` with numbers, or a frame index out of range, named by
+/// its line.
+pub fn parse_inliers_csv(path: &Path, text: &str, frames: usize) -> Result<Vec<Vec<[f32; 2]>>> {
     let mut out = vec![Vec::new(); frames];
     for (k, line) in text.lines().enumerate().skip(1) {
         if line.trim().is_empty() {

@@ -136,23 +136,46 @@ pub fn load_map(dir: &Path) -> Result<Map, LocalizeError> {
             ));
         }
     }
+    map_from_parts(meta, &bin_path, &bytes)
+}
+
+/// Parses a map from the text of its `map.toml` and the bytes of its `map.bin` (see
+/// [`load_map`]); the paths name the files in errors.
+///
+/// # Errors
+/// [`LocalizeError::File`] for TOML that does not describe a map, or a truncated or foreign
+/// `map.bin` (naming the file and what was expected).
+pub fn parse_map(
+    toml_path: &Path,
+    toml_text: &str,
+    bin_path: &Path,
+    bin_bytes: &[u8],
+) -> Result<Map, LocalizeError> {
+    let meta: MapMeta = toml::from_str(toml_text).map_err(|e| file_err(toml_path, e))?;
+    map_from_parts(meta, bin_path, bin_bytes)
+}
+
+/// The map of `meta` with the points of `map.bin`'s `bytes`.
+fn map_from_parts(meta: MapMeta, bin_path: &Path, bytes: &[u8]) -> Result<Map, LocalizeError> {
     let mut r = Reader {
-        bytes: &bytes,
+        bytes,
         pos: 0,
-        path: &bin_path,
+        path: bin_path,
     };
     if r.take(MAGIC.len())? != MAGIC {
-        return Err(file_err(&bin_path, "not an endoloc map file (bad magic)"));
+        return Err(file_err(bin_path, "not an endoloc map file (bad magic)"));
     }
     let version = r.u32()?;
     if version != VERSION {
         return Err(file_err(
-            &bin_path,
+            bin_path,
             format!("map format {version}, expected {VERSION}"),
         ));
     }
     let n_zones = r.u32()? as usize;
-    let mut zones = Vec::with_capacity(n_zones.min(100_000));
+    // Capacities from the counts in the file, bounded by what the rest of it can hold: a
+    // damaged count must not reserve memory for records that are not there.
+    let mut zones = Vec::with_capacity(n_zones.min(r.remaining() / ZONE_MIN_BYTES));
     for _ in 0..n_zones {
         let zone = r.u32()? as usize;
         let nf = r.u32()? as usize;
@@ -161,13 +184,13 @@ pub fn load_map(dir: &Path) -> Result<Map, LocalizeError> {
             .collect::<Result<_, _>>()?;
         let np = r.u32()? as usize;
         let dim = r.u32()? as usize;
-        let mut points = Vec::with_capacity(np.min(1_000_000));
+        let mut points = Vec::with_capacity(np.min(r.remaining() / POINT_MIN_BYTES));
         for _ in 0..np {
             let (x, y, z, rms) = (r.f64()?, r.f64()?, r.f64()?, r.f64()?);
             let laplacian = r.take(1)?[0] as i8;
             let descriptor = (0..dim).map(|_| r.f32()).collect::<Result<_, _>>()?;
             let no = r.u32()? as usize;
-            let mut observations = Vec::with_capacity(no.min(1000));
+            let mut observations = Vec::with_capacity(no.min(r.remaining() / OBSERVATION_BYTES));
             for _ in 0..no {
                 let f = r.u32()? as usize;
                 observations.push((f, Point2::new(r.f64()?, r.f64()?)));
@@ -202,7 +225,18 @@ struct Reader<'a> {
     path: &'a Path,
 }
 
+/// Fewest bytes of a zone in `map.bin`: index, frame count, point count, descriptor length.
+const ZONE_MIN_BYTES: usize = 16;
+/// Fewest bytes of a point: position, RMS, Laplacian, observation count.
+const POINT_MIN_BYTES: usize = 37;
+/// Bytes of an observation: frame, `u`, `v`.
+const OBSERVATION_BYTES: usize = 20;
+
 impl Reader<'_> {
+    /// Bytes not read yet.
+    fn remaining(&self) -> usize {
+        self.bytes.len() - self.pos
+    }
     fn take(&mut self, n: usize) -> Result<&[u8], LocalizeError> {
         let end = self.pos.checked_add(n).filter(|&e| e <= self.bytes.len());
         let Some(end) = end else {

@@ -29,13 +29,25 @@ pub(crate) fn put_f32<'a>(out: &mut Vec<u8>, values: impl IntoIterator<Item = &'
     }
 }
 
-/// Reads `path` and checks that it starts with `magic`; `what` names the kind of file in the
-/// error ("descriptor database").
+/// Reads the bytes of `path`.
 ///
 /// # Errors
-/// [`NetError::Io`] if unreadable; [`NetError::Parse`] for a short file or another magic.
-pub(crate) fn read(path: &Path, magic: &[u8; 8], what: &str) -> Result<Vec<u8>, NetError> {
-    let bytes = std::fs::read(path).map_err(|e| NetError::io(path, e))?;
+/// [`NetError::Io`] if unreadable.
+pub(crate) fn read(path: &Path) -> Result<Vec<u8>, NetError> {
+    std::fs::read(path).map_err(|e| NetError::io(path, e))
+}
+
+/// Checks that the bytes of the file `path` start with `magic` and hold the two header words;
+/// `what` names the kind of file in the error ("descriptor database").
+///
+/// # Errors
+/// [`NetError::Parse`] for a short file or another magic.
+pub(crate) fn check_header(
+    path: &Path,
+    bytes: &[u8],
+    magic: &[u8; 8],
+    what: &str,
+) -> Result<(), NetError> {
     if bytes.len() < HEADER || &bytes[..8] != magic {
         return Err(NetError::parse(
             path,
@@ -43,7 +55,7 @@ pub(crate) fn read(path: &Path, magic: &[u8; 8], what: &str) -> Result<Vec<u8>, 
             format!("not an endoloc {what} (bad header)"),
         ));
     }
-    Ok(bytes)
+    Ok(())
 }
 
 /// The 4 bytes at `offset`.

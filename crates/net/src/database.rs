@@ -248,10 +248,19 @@ impl DescriptorDatabase {
     /// [`NetError::Io`] if unreadable; [`NetError::Parse`] for a bad header, a truncated
     /// file or a zone index `≥ zones`.
     pub fn load(path: &Path, zones: usize) -> Result<Self, NetError> {
-        let bytes = binfile::read(path, MAGIC, "descriptor database")?;
+        Self::from_bytes(path, &binfile::read(path)?, zones)
+    }
+
+    /// Parses the bytes of a `database.bin` (see [`DescriptorDatabase::load`]); `path` names
+    /// the file in errors.
+    ///
+    /// # Errors
+    /// [`NetError::Parse`] for a bad header, a truncated file or a zone index `≥ zones`.
+    pub fn from_bytes(path: &Path, bytes: &[u8], zones: usize) -> Result<Self, NetError> {
+        binfile::check_header(path, bytes, MAGIC, "descriptor database")?;
         let bad = |m: String| NetError::parse(path, 0, m);
-        let n = u32::from_le_bytes(binfile::word(&bytes, 8)) as usize;
-        let dim = u32::from_le_bytes(binfile::word(&bytes, 12)) as usize;
+        let n = u32::from_le_bytes(binfile::word(bytes, 8)) as usize;
+        let dim = u32::from_le_bytes(binfile::word(bytes, 12)) as usize;
         // In u128: a damaged header's counts must not overflow.
         let expected = binfile::HEADER as u128 + 4 * n as u128 * (1 + dim as u128);
         if bytes.len() as u128 != expected {

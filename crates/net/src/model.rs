@@ -104,13 +104,23 @@ impl ModelConfig {
     pub fn load(dir: &Path) -> Result<Self, NetError> {
         let path = dir.join(CONFIG_FILE);
         let text = std::fs::read_to_string(&path).map_err(|e| NetError::io(&path, e))?;
-        let cfg: ModelConfig = toml::from_str(&text).map_err(|e| {
-            let (line, message) = endoloc_data::toml_error_line(&text, &e);
-            NetError::parse(&path, line, message)
+        Self::parse(&path, &text)
+    }
+
+    /// Parses the text of a `model.toml` (see [`ModelConfig::load`]); `path` names the file
+    /// in errors.
+    ///
+    /// # Errors
+    /// [`NetError::Parse`] (with the line) for bad TOML, a format version this build does not
+    /// read, or filter parameters out of range.
+    pub fn parse(path: &Path, text: &str) -> Result<Self, NetError> {
+        let cfg: ModelConfig = toml::from_str(text).map_err(|e| {
+            let (line, message) = endoloc_data::toml_error_line(text, &e);
+            NetError::parse(path, line, message)
         })?;
         if cfg.format_version != FORMAT_VERSION {
             return Err(NetError::parse(
-                &path,
+                path,
                 0,
                 format!(
                     "model format version {}; this build reads version {FORMAT_VERSION}",
@@ -120,7 +130,7 @@ impl ModelConfig {
         }
         // Filter parameters a user may have edited: refused here, not at the first frame.
         for check in [cfg.temporal.validate(), cfg.track.validate()] {
-            check.map_err(|e| NetError::parse(&path, 0, e.to_string()))?;
+            check.map_err(|e| NetError::parse(path, 0, e.to_string()))?;
         }
         Ok(cfg)
     }
@@ -163,10 +173,31 @@ pub fn load_weights(
     if !path.is_file() {
         return Err(NetError::weights(path, "file not found"));
     }
+    load_into(cfg, path, SafetensorsStore::from_file(path), device)
+}
+
+/// [`load_weights`] from the bytes of a safetensors file; `path` names the file in errors.
+///
+/// # Errors
+/// [`NetError::Weights`] naming the file and what is missing, mismatched or malformed.
+pub fn load_weights_from_bytes(
+    cfg: &BackboneConfig,
+    path: &Path,
+    bytes: Vec<u8>,
+    device: &Device,
+) -> Result<EmbeddingNet, NetError> {
+    load_into(cfg, path, SafetensorsStore::from_bytes(Some(bytes)), device)
+}
+
+/// The backbone of `cfg` with the weights of `store` (the file `path`).
+fn load_into(
+    cfg: &BackboneConfig,
+    path: &Path,
+    store: SafetensorsStore,
+    device: &Device,
+) -> Result<EmbeddingNet, NetError> {
     let mut net = cfg.init(device);
-    let mut store = SafetensorsStore::from_file(path)
-        .skip_enum_variants(true)
-        .allow_partial(false);
+    let mut store = store.skip_enum_variants(true).allow_partial(false);
     let result = net
         .load_from(&mut store)
         .map_err(|e| NetError::weights(path, e))?;

@@ -158,17 +158,33 @@ impl Whitening {
     /// [`NetError::Io`] if unreadable; [`NetError::Parse`] for a bad header, another length,
     /// a truncated file or a value that is not finite.
     pub fn load(path: &Path, dim: usize) -> Result<Self, NetError> {
-        let bytes = binfile::read(path, MAGIC, "whitening")?;
+        Self::from_bytes(path, &binfile::read(path)?, dim)
+    }
+
+    /// Parses the bytes of a `whitening.bin` for descriptors of length `dim` (see
+    /// [`Whitening::load`]); `path` names the file in errors.
+    ///
+    /// # Errors
+    /// [`NetError::Parse`] for a bad header, another length, a truncated file or a value that
+    /// is not finite.
+    pub fn from_bytes(path: &Path, bytes: &[u8], dim: usize) -> Result<Self, NetError> {
+        binfile::check_header(path, bytes, MAGIC, "whitening")?;
         let bad = |m: String| NetError::parse(path, 0, m);
-        let stored = u32::from_le_bytes(binfile::word(&bytes, 8)) as usize;
-        let power = f32::from_le_bytes(binfile::word(&bytes, 12));
+        let stored = u32::from_le_bytes(binfile::word(bytes, 8)) as usize;
+        let power = f32::from_le_bytes(binfile::word(bytes, 12));
         if stored != dim {
             return Err(bad(format!(
                 "whitens descriptors of length {stored}; the backbone makes {dim}"
             )));
         }
-        let expected = binfile::HEADER + 4 * (dim + dim * dim);
-        if bytes.len() != expected {
+        if dim == 0 {
+            return Err(bad(
+                "whitens descriptors of length 0; expected a positive length".to_string(),
+            ));
+        }
+        // In u128: a damaged header's length must not overflow.
+        let expected = binfile::HEADER as u128 + 4 * (dim as u128 + dim as u128 * dim as u128);
+        if bytes.len() as u128 != expected {
             return Err(bad(format!(
                 "{} bytes; expected {expected} for descriptors of length {dim}",
                 bytes.len()

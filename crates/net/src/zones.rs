@@ -553,6 +553,16 @@ impl ZoneTable {
     /// bad row, a missing config line, or zones that do not tile the frames `0..n`.
     pub fn load(path: &Path) -> Result<Self, NetError> {
         let text = std::fs::read_to_string(path).map_err(|e| NetError::io(path, e))?;
+        Self::parse(path, &text)
+    }
+
+    /// Parses the text of a table written by [`ZoneTable::save`]; `path` names the file in
+    /// errors.
+    ///
+    /// # Errors
+    /// [`NetError::Parse`] naming the line for a bad row, a missing config line, or zones that
+    /// do not tile the frames `0..n`.
+    pub fn parse(path: &Path, text: &str) -> Result<Self, NetError> {
         let p = |line: usize, m: String| NetError::parse(PathBuf::from(path), line, m);
         let mut config = None;
         let mut header = false;

@@ -149,7 +149,15 @@ pub fn parse_pose_line(line: &str, path: &Path, line_no: usize) -> Result<Pose, 
 /// not a finite number, a bottom row other than `0 0 0 1`, a rotation block that is not a
 /// rotation.
 pub fn read_c3vd_poses(path: &Path) -> Result<Vec<Pose>, DataError> {
-    let text = read_text(path)?;
+    parse_c3vd_poses(path, &read_text(path)?)
+}
+
+/// Parses the text of C3VD's `pose.txt` (see [`read_c3vd_poses`]); `path` names the file in
+/// errors.
+///
+/// # Errors
+/// [`DataError::Parse`] naming the line, as [`read_c3vd_poses`].
+pub fn parse_c3vd_poses(path: &Path, text: &str) -> Result<Vec<Pose>, DataError> {
     let mut poses = Vec::new();
     for (i, line) in text.lines().enumerate() {
         if line.trim().is_empty() {

@@ -27,7 +27,7 @@ use super::simcol3d::pose_from_unity;
 use super::table::Table;
 use super::{ImportedFrame, ImportedSequence, list_files, natural_sort, unit_quaternion};
 use crate::{DataError, StampedPose};
-use endoloc_geometry::Camera;
+use endoloc_geometry::{Camera, Pose};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -172,94 +172,9 @@ pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequ
             "no images (png, jpg, bmp, tif) here",
         ));
     }
-    let scale = config.units.mm_per_unit();
     let mut notes = Vec::new();
-    let has = |name: &str| table.header.iter().any(|h| h == name);
-    // An ex-vivo table has ImageFrame; a workbook without UnityCam's `tX` is taken as one too,
-    // so that its error lists the ex-vivo columns.
-    let ex_vivo = has("imageframe") || (super::table::is_xlsx(&pose_path) && !has("tx"));
-    let frames = if ex_vivo {
-        let c = table.columns(EX_VIVO_COLUMNS)?;
-        // key → (line, pose) for every row.
-        let mut by_key: BTreeMap<String, (usize, endoloc_geometry::Pose)> = BTreeMap::new();
-        for (line, cells) in &table.rows {
-            let v: Vec<f64> = c[1..]
-                .iter()
-                .map(|&k| table.number(*line, cells, k))
-                .collect::<Result<_, _>>()?;
-            let q = unit_quaternion(&pose_path, *line, [v[3], v[4], v[5], v[6]])
-                .map_err(|e| table.locate(e))?;
-            let pose = super::canonical_pose(Vector3::new(v[0], v[1], v[2]) * scale, q);
-            let raw = Table::text(cells, c[0]);
-            if raw.trim().is_empty() {
-                return Err(table.locate(DataError::parse(
-                    &pose_path,
-                    *line,
-                    "ImageFrame is empty; expected a frame number or image name",
-                )));
-            }
-            let key = frame_key(raw);
-            if let Some((first, _)) = by_key.insert(key, (*line, pose)) {
-                return Err(table.locate(DataError::parse(
-                    &pose_path,
-                    *line,
-                    format!(
-                        "ImageFrame {raw:?} already has a pose on {}; expected one row per frame",
-                        table.row_name(first)
-                    ),
-                )));
-            }
-        }
-        let mut frames = Vec::new();
-        let mut used = 0usize;
-        for (n, img) in &images {
-            let stem = img
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            let name = img
-                .file_name()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            let hit = [n.to_string(), stem, name]
-                .into_iter()
-                .find_map(|k| by_key.get(&k));
-            if let Some((_, pose)) = hit {
-                used += 1;
-                frames.push(ImportedFrame {
-                    image: img.clone(),
-                    depth: None,
-                    pose: StampedPose {
-                        timestamp_s: *n as f64 / config.fps,
-                        pose: *pose,
-                    },
-                });
-            }
-        }
-        if frames.is_empty() {
-            return Err(DataError::invalid(
-                &pose_path,
-                format!(
-                    "no ImageFrame matches an image in {}; expected frame numbers or file names of its images",
-                    frames_dir.display()
-                ),
-            ));
-        }
-        if used < images.len() {
-            notes.push(format!(
-                "{} frames without a pose skipped",
-                images.len() - used
-            ));
-        }
-        if used < by_key.len() {
-            notes.push(format!(
-                "{} pose rows name no image and were ignored",
-                by_key.len() - used
-            ));
-        }
-        frames
-    } else {
-        let c = table.columns(UNITY_COLUMNS)?;
+    if !is_ex_vivo(&table, &pose_path) {
+        table.columns(UNITY_COLUMNS)?;
         if table.rows.len() != images.len() {
             return Err(DataError::invalid(
                 &pose_path,
@@ -271,24 +186,67 @@ pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequ
                 ),
             ));
         }
-        let mut frames = Vec::with_capacity(images.len());
-        for ((line, cells), (_, img)) in table.rows.iter().zip(images) {
-            let v: Vec<f64> = c
-                .iter()
-                .map(|&k| table.number(*line, cells, k))
-                .collect::<Result<_, _>>()?;
-            let q = unit_quaternion(&pose_path, *line, [v[3], v[4], v[5], v[6]])
-                .map_err(|e| table.locate(e))?;
-            frames.push(ImportedFrame {
+    }
+    let frames = match poses_of_table(&table, &pose_path, config.units)? {
+        PoseTable::ExVivo(by_key) => {
+            let mut frames = Vec::new();
+            let mut used = 0usize;
+            for (n, img) in &images {
+                let stem = img
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                let name = img
+                    .file_name()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                let hit = [n.to_string(), stem, name]
+                    .into_iter()
+                    .find_map(|k| by_key.get(&k));
+                if let Some((_, pose)) = hit {
+                    used += 1;
+                    frames.push(ImportedFrame {
+                        image: img.clone(),
+                        depth: None,
+                        pose: StampedPose {
+                            timestamp_s: *n as f64 / config.fps,
+                            pose: *pose,
+                        },
+                    });
+                }
+            }
+            if frames.is_empty() {
+                return Err(DataError::invalid(
+                    &pose_path,
+                    format!(
+                        "no ImageFrame matches an image in {}; expected frame numbers or file names of its images",
+                        frames_dir.display()
+                    ),
+                ));
+            }
+            if used < images.len() {
+                notes.push(format!(
+                    "{} frames without a pose skipped",
+                    images.len() - used
+                ));
+            }
+            if used < by_key.len() {
+                notes.push(format!(
+                    "{} pose rows name no image and were ignored",
+                    by_key.len() - used
+                ));
+            }
+            frames
+        }
+        PoseTable::Unity(rows) => rows
+            .into_iter()
+            .zip(images)
+            .map(|((_, pose), (_, img))| ImportedFrame {
                 image: img,
                 depth: None,
-                pose: StampedPose {
-                    timestamp_s: v[7],
-                    pose: pose_from_unity(Vector3::new(v[0], v[1], v[2]), q, scale),
-                },
-            });
-        }
-        frames
+                pose,
+            })
+            .collect(),
     };
     Ok(ImportedSequence {
         source: src.to_path_buf(),
@@ -297,6 +255,98 @@ pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequ
         camera: config.camera,
         notes,
     })
+}
+
+/// The poses of an EndoSLAM pose table, before they are paired with the frames.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PoseTable {
+    /// Ex-vivo: `ImageFrame` (a frame number or an image's file name or stem, as written) →
+    /// (line or spreadsheet row, `T_wc` in mm).
+    ExVivo(BTreeMap<String, (usize, Pose)>),
+    /// UnityCam: `(line or spreadsheet row, pose)` per row in order, converted from Unity's
+    /// axes, time stamps from `time(s)`.
+    Unity(Vec<(usize, StampedPose)>),
+}
+
+/// Parses the bytes of an EndoSLAM pose file (CSV text, or an `.xlsx` workbook when `path`
+/// ends in `.xlsx`: sheet `sheet`, else the first with an `ImageFrame` column) into its poses,
+/// as [`read_endoslam`] reads them; `path` names the file in errors.
+///
+/// # Errors
+/// [`DataError::Parse`] naming the file, the line (or sheet and row) and the cell, for the
+/// problems listed at [`read_endoslam`]; [`DataError::Invalid`] for an unreadable workbook.
+pub fn parse_pose_table(
+    path: &Path,
+    bytes: Vec<u8>,
+    sheet: Option<&str>,
+    units: Units,
+) -> Result<PoseTable, DataError> {
+    let table = Table::parse(path, bytes, sheet, "imageframe")?;
+    poses_of_table(&table, path, units)
+}
+
+/// Whether a table holds ex-vivo poses: it has `ImageFrame`; a workbook without UnityCam's
+/// `tX` is taken as one too, so that its error lists the ex-vivo columns.
+fn is_ex_vivo(table: &Table, pose_path: &Path) -> bool {
+    let has = |name: &str| table.header.iter().any(|h| h == name);
+    has("imageframe") || (super::table::is_xlsx(pose_path) && !has("tx"))
+}
+
+/// The poses of every row of `table`, read from `pose_path`.
+fn poses_of_table(table: &Table, pose_path: &Path, units: Units) -> Result<PoseTable, DataError> {
+    let scale = units.mm_per_unit();
+    if is_ex_vivo(table, pose_path) {
+        let c = table.columns(EX_VIVO_COLUMNS)?;
+        let mut by_key: BTreeMap<String, (usize, Pose)> = BTreeMap::new();
+        for (line, cells) in &table.rows {
+            let v: Vec<f64> = c[1..]
+                .iter()
+                .map(|&k| table.number(*line, cells, k))
+                .collect::<Result<_, _>>()?;
+            let q = unit_quaternion(pose_path, *line, [v[3], v[4], v[5], v[6]])
+                .map_err(|e| table.locate(e))?;
+            let pose = super::canonical_pose(Vector3::new(v[0], v[1], v[2]) * scale, q);
+            let raw = Table::text(cells, c[0]);
+            if raw.trim().is_empty() {
+                return Err(table.locate(DataError::parse(
+                    pose_path,
+                    *line,
+                    "ImageFrame is empty; expected a frame number or image name",
+                )));
+            }
+            let key = frame_key(raw);
+            if let Some((first, _)) = by_key.insert(key, (*line, pose)) {
+                return Err(table.locate(DataError::parse(
+                    pose_path,
+                    *line,
+                    format!(
+                        "ImageFrame {raw:?} already has a pose on {}; expected one row per frame",
+                        table.row_name(first)
+                    ),
+                )));
+            }
+        }
+        Ok(PoseTable::ExVivo(by_key))
+    } else {
+        let c = table.columns(UNITY_COLUMNS)?;
+        let mut rows = Vec::with_capacity(table.rows.len());
+        for (line, cells) in &table.rows {
+            let v: Vec<f64> = c
+                .iter()
+                .map(|&k| table.number(*line, cells, k))
+                .collect::<Result<_, _>>()?;
+            let q = unit_quaternion(pose_path, *line, [v[3], v[4], v[5], v[6]])
+                .map_err(|e| table.locate(e))?;
+            rows.push((
+                *line,
+                StampedPose {
+                    timestamp_s: v[7],
+                    pose: pose_from_unity(Vector3::new(v[0], v[1], v[2]), q, scale),
+                },
+            ));
+        }
+        Ok(PoseTable::Unity(rows))
+    }
 }
 
 /// Join key of an `ImageFrame` cell: an integer-valued number as its decimal digits

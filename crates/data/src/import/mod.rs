@@ -301,8 +301,17 @@ impl UndistortMap {
 }
 
 fn decode_image(path: &Path) -> Result<image::DynamicImage, DataError> {
-    image::ImageReader::open(path)
-        .map_err(|e| DataError::io(path, e))?
+    let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+    decode_source_image(path, &bytes)
+}
+
+/// Decodes the bytes of a source image (any format the `image` crate reads: PNG, TIFF,
+/// JPEG…, recognised by its content), as the importers do; `path` names the file in errors.
+///
+/// # Errors
+/// [`DataError::Image`] for bytes that are not an image the decoder reads.
+pub fn decode_source_image(path: &Path, bytes: &[u8]) -> Result<image::DynamicImage, DataError> {
+    image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| DataError::io(path, e))?
         .decode()
@@ -311,7 +320,23 @@ fn decode_image(path: &Path) -> Result<image::DynamicImage, DataError> {
 
 /// Reads a depth map as millimetres along z, row-major.
 fn read_depth_mm(path: &Path, enc: DepthEncoding) -> Result<(u32, u32, Vec<f32>), DataError> {
-    let img = decode_image(path)?;
+    let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+    source_depth_mm(path, &bytes, enc)
+}
+
+/// Decodes the bytes of a source depth map (one channel, 8- or 16-bit; PNG, TIFF…) into
+/// millimetres along z with `enc`, 0 where there is no depth, as the importers do; returns
+/// `(width, height, depth_mm)`, row-major. `path` names the file in errors.
+///
+/// # Errors
+/// [`DataError::Image`] for bytes that are not an image, or an image with more than one
+/// channel.
+pub fn source_depth_mm(
+    path: &Path,
+    bytes: &[u8],
+    enc: DepthEncoding,
+) -> Result<(u32, u32, Vec<f32>), DataError> {
+    let img = decode_source_image(path, bytes)?;
     if img.color().channel_count() != 1 {
         return Err(DataError::image(
             path,

@@ -125,10 +125,19 @@ pub const CAM_FILE: &str = "cam.txt";
 /// [`DataError::Parse`] naming the file and line for a value that is not a finite number, a
 /// count other than 9, or a focal length that is not positive; [`DataError::Io`].
 pub fn read_cam_txt(path: &Path) -> Result<f64, DataError> {
+    parse_cam_txt(path, &read_text(path)?)
+}
+
+/// Parses the text of a SimCol3D `cam.txt` (see [`read_cam_txt`]); `path` names the file in
+/// errors.
+///
+/// # Errors
+/// [`DataError::Parse`] naming the line, as [`read_cam_txt`].
+pub fn parse_cam_txt(path: &Path, text: &str) -> Result<f64, DataError> {
     let names = [
         "k00", "k01", "k02", "k10", "k11", "k12", "k20", "k21", "k22",
     ];
-    let rows = read_rows(path, names)?;
+    let rows = parse_rows(path, text, names)?;
     match rows.as_slice() {
         [(line, k)] => {
             if k[0] > 0.0 {
@@ -176,13 +185,62 @@ pub fn pose_from_unity(
     super::canonical_pose(s * t_unity * mm_per_unit, q)
 }
 
+/// Parses the texts of a SimCol3D `SavedPosition_*.txt` (`tx ty tz`, Unity units: cm) and its
+/// `SavedRotationQuaternion_*.txt` (`qx qy qz qw`) into `T_wc` poses, one per line, converted
+/// as by the importer ([`pose_from_unity`]); the paths name the files in errors.
+///
+/// # Errors
+/// [`DataError::Parse`] naming the file and line for a wrong column count, a value that is not
+/// a finite number or a quaternion whose norm is not 1; [`DataError::Invalid`] when the counts
+/// differ.
+pub fn parse_simcol3d_poses(
+    pos_path: &Path,
+    pos_text: &str,
+    rot_path: &Path,
+    rot_text: &str,
+) -> Result<Vec<Pose>, DataError> {
+    let positions = parse_rows(pos_path, pos_text, ["tx", "ty", "tz"])?;
+    let rotations = parse_rows(rot_path, rot_text, ["qx", "qy", "qz", "qw"])?;
+    if positions.len() != rotations.len() {
+        return Err(DataError::invalid(
+            rot_path,
+            format!(
+                "{} quaternions but {} positions in {}; expected one per frame",
+                rotations.len(),
+                positions.len(),
+                pos_path.display()
+            ),
+        ));
+    }
+    positions
+        .iter()
+        .zip(&rotations)
+        .map(|((_, t), (line, q))| {
+            let q = unit_quaternion(rot_path, *line, *q)?;
+            Ok(pose_from_unity(
+                Vector3::new(t[0], t[1], t[2]),
+                q,
+                MM_PER_CM,
+            ))
+        })
+        .collect()
+}
+
 /// Reads a text file of `n` whitespace- (or comma-) separated numbers per line; blank lines
 /// skipped. Returns `(line number, values)`.
 pub(crate) fn read_rows<const N: usize>(
     path: &Path,
     names: [&str; N],
 ) -> Result<Vec<(usize, [f64; N])>, DataError> {
-    let text = read_text(path)?;
+    parse_rows(path, &read_text(path)?, names)
+}
+
+/// [`read_rows`] of a file's text.
+fn parse_rows<const N: usize>(
+    path: &Path,
+    text: &str,
+    names: [&str; N],
+) -> Result<Vec<(usize, [f64; N])>, DataError> {
     let mut rows = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let cols: Vec<&str> = line

@@ -12,7 +12,7 @@
 
 use super::parse_field;
 use crate::DataError;
-use crate::fsutil::read_text;
+use crate::fsutil::text_from_bytes;
 use std::path::{Path, PathBuf};
 
 /// Where the rows of a [`Table`] come from.
@@ -67,15 +67,26 @@ impl Table {
     /// cell count differs from the header's; [`DataError::Invalid`] for an unreadable
     /// workbook, a missing sheet, or an `.xlsx` when built without the `xlsx` feature.
     pub fn read(path: &Path, sheet: Option<&str>, prefer_column: &str) -> Result<Self, DataError> {
-        if is_xlsx(path) {
-            return read_xlsx(path, sheet, prefer_column);
-        }
-        Self::read_csv(path)
+        let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+        Self::parse(path, bytes, sheet, prefer_column)
     }
 
-    /// Reads a CSV text file (`,`, `;` or tab separated; quotes around cells stripped).
-    fn read_csv(path: &Path) -> Result<Self, DataError> {
-        let text = read_text(path)?;
+    /// [`Table::read`] of a file's bytes; `path` gives the format (by its extension) and
+    /// names the file in errors.
+    pub fn parse(
+        path: &Path,
+        bytes: Vec<u8>,
+        sheet: Option<&str>,
+        prefer_column: &str,
+    ) -> Result<Self, DataError> {
+        if is_xlsx(path) {
+            return parse_xlsx(path, bytes, sheet, prefer_column);
+        }
+        Self::parse_csv(path, &text_from_bytes(path, bytes)?)
+    }
+
+    /// Parses CSV text (`,`, `;` or tab separated; quotes around cells stripped).
+    fn parse_csv(path: &Path, text: &str) -> Result<Self, DataError> {
         let mut lines = text
             .lines()
             .enumerate()
@@ -224,9 +235,13 @@ impl Table {
 
 /// Reads one worksheet of an `.xlsx` workbook as a [`Table`].
 #[cfg(feature = "xlsx")]
-fn read_xlsx(path: &Path, sheet: Option<&str>, prefer_column: &str) -> Result<Table, DataError> {
-    use calamine::{Data, Reader, Xlsx};
-    let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+fn parse_xlsx(
+    path: &Path,
+    bytes: Vec<u8>,
+    sheet: Option<&str>,
+    prefer_column: &str,
+) -> Result<Table, DataError> {
+    use calamine::{Reader, Xlsx};
     let unreadable = |what: String| {
         DataError::invalid(
             path,
@@ -234,21 +249,18 @@ fn read_xlsx(path: &Path, sheet: Option<&str>, prefer_column: &str) -> Result<Ta
         )
     };
     // calamine parses untrusted bytes; a panic inside it must become an error, not a crash.
-    let opened =
-        std::panic::catch_unwind(|| -> Result<Vec<(String, calamine::Range<Data>)>, String> {
-            let mut book = Xlsx::new(std::io::Cursor::new(bytes)).map_err(|e| e.to_string())?;
-            let names = book.sheet_names();
-            let mut sheets = Vec::with_capacity(names.len());
-            for n in names {
-                let range = book
-                    .worksheet_range(&n)
-                    .map_err(|e| format!("sheet {n:?}: {e}"))?;
-                sheets.push((n, range));
-            }
-            Ok(sheets)
-        })
-        .map_err(|_| unreadable("the reader failed on this file".into()))?
-        .map_err(unreadable)?;
+    let opened = std::panic::catch_unwind(|| -> Result<Vec<(String, SheetCells)>, String> {
+        let mut book = Xlsx::new(std::io::Cursor::new(bytes)).map_err(|e| e.to_string())?;
+        let names = book.sheet_names();
+        let mut sheets = Vec::with_capacity(names.len());
+        for n in names {
+            let cells = sheet_cells(&mut book, &n).map_err(|e| format!("sheet {n:?}: {e}"))?;
+            sheets.push((n, cells));
+        }
+        Ok(sheets)
+    })
+    .map_err(|_| unreadable("the reader failed on this file".into()))?
+    .map_err(unreadable)?;
     if opened.is_empty() {
         return Err(DataError::invalid(path, "the workbook has no worksheet"));
     }
@@ -259,16 +271,16 @@ fn read_xlsx(path: &Path, sheet: Option<&str>, prefer_column: &str) -> Result<Ta
             .collect::<Vec<_>>()
             .join(", ")
     };
-    let tables = || opened.iter().map(|(n, r)| table_from_range(path, n, r));
+    let tables = || opened.iter().map(|(n, c)| table_from_cells(path, n, c));
     let table = match sheet {
         Some(want) => {
-            let Some((n, r)) = opened.iter().find(|(n, _)| n == want) else {
+            let Some((n, c)) = opened.iter().find(|(n, _)| n == want) else {
                 return Err(DataError::invalid(
                     path,
                     format!("no sheet {want:?}; the workbook has {}", sheet_names()),
                 ));
             };
-            table_from_range(path, n, r)?
+            table_from_cells(path, n, c)?
         }
         None => {
             // The first sheet whose header has the wanted column; else the first sheet, so
@@ -285,8 +297,8 @@ fn read_xlsx(path: &Path, sheet: Option<&str>, prefer_column: &str) -> Result<Ta
             match found {
                 Some(t) => t,
                 None => {
-                    let (n, r) = &opened[0];
-                    table_from_range(path, n, r)?
+                    let (n, c) = &opened[0];
+                    table_from_cells(path, n, c)?
                 }
             }
         }
@@ -294,44 +306,100 @@ fn read_xlsx(path: &Path, sheet: Option<&str>, prefer_column: &str) -> Result<Ta
     Ok(table)
 }
 
-/// A worksheet's used range as a [`Table`]: the first non-empty row is the header.
+/// Most cells with a value read from one worksheet: a pose table has a few per frame. A
+/// workbook's size says little about its sheets (their XML is compressed), so a sheet with
+/// more is refused rather than read into memory.
 #[cfg(feature = "xlsx")]
-fn table_from_range(
-    path: &Path,
-    sheet: &str,
-    range: &calamine::Range<calamine::Data>,
-) -> Result<Table, DataError> {
-    use calamine::Data;
-    let text = |d: &Data| -> String {
-        match d {
+const MAX_SHEET_CELLS: usize = 1 << 22;
+
+/// Most cells (rows with a value × columns of the used range) of a [`Table`] from a sheet:
+/// a few cells far apart must not make a table of billions of empty ones.
+#[cfg(feature = "xlsx")]
+const MAX_TABLE_CELLS: usize = 1 << 22;
+
+/// The cells of a worksheet that hold a value: `((row, column), text)`, 0-based, in the
+/// sheet's order.
+#[cfg(feature = "xlsx")]
+type SheetCells = Vec<((u32, u32), String)>;
+
+/// Reads the cells of sheet `name` that hold a value, as text (strings trimmed; numbers as
+/// the shortest text that reads back to the same `f64`).
+#[cfg(feature = "xlsx")]
+fn sheet_cells<RS: std::io::Read + std::io::Seek>(
+    book: &mut calamine::Xlsx<RS>,
+    name: &str,
+) -> Result<SheetCells, String> {
+    use calamine::{Data, DataRef};
+    let mut reader = match book.worksheet_cells_reader(name) {
+        Ok(r) => r,
+        // A chart sheet or another non-worksheet: no cells, as calamine's own ranges.
+        Err(calamine::XlsxError::NotAWorksheet(_)) => return Ok(Vec::new()),
+        Err(e) => return Err(e.to_string()),
+    };
+    let mut cells = Vec::new();
+    while let Some(cell) = reader.next_cell().map_err(|e| e.to_string())? {
+        if matches!(cell.get_value(), DataRef::Empty) {
+            continue;
+        }
+        if cells.len() == MAX_SHEET_CELLS {
+            return Err(format!(
+                "more than {MAX_SHEET_CELLS} cells with a value; expected a pose table"
+            ));
+        }
+        let text = match Data::from(cell.get_value().clone()) {
             Data::Empty => String::new(),
             Data::String(s) => s.trim().to_string(),
             other => other.to_string(),
+        };
+        cells.push((cell.get_position(), text));
+    }
+    Ok(cells)
+}
+
+/// A worksheet's used range (the cells with a value) as a [`Table`]: the first non-empty row
+/// is the header.
+#[cfg(feature = "xlsx")]
+fn table_from_cells(path: &Path, sheet: &str, cells: &SheetCells) -> Result<Table, DataError> {
+    use std::collections::BTreeMap;
+    let empty = || {
+        DataError::parse(
+            path,
+            0,
+            format!("sheet {sheet:?} is empty; expected a header row and one row per pose"),
+        )
+    };
+    let Some(col0) = cells.iter().map(|((_, c), _)| *c).min() else {
+        return Err(empty());
+    };
+    let col_end = cells.iter().map(|((_, c), _)| *c).max().unwrap_or(col0);
+    let width = (col_end - col0) as usize + 1;
+    // Rows with a non-empty cell, in row order.
+    let mut by_row: BTreeMap<u32, Vec<(u32, &str)>> = BTreeMap::new();
+    for ((r, c), text) in cells {
+        if !text.is_empty() {
+            by_row.entry(*r).or_default().push((*c, text));
         }
-    };
-    let Some((row0, col0)) = range.start() else {
-        return Err(DataError::parse(
+    }
+    if by_row.len().saturating_mul(width) > MAX_TABLE_CELLS {
+        return Err(DataError::invalid(
             path,
-            0,
-            format!("sheet {sheet:?} is empty; expected a header row and one row per pose"),
+            format!(
+                "sheet {sheet:?}: {} rows with a value × {width} columns ({} to {}); expected a pose table of at most {MAX_TABLE_CELLS} cells",
+                by_row.len(),
+                column_letters(col0),
+                column_letters(col_end),
+            ),
         ));
-    };
-    let mut rows = range
-        .rows()
-        .enumerate()
-        .map(|(i, r)| {
-            (
-                row0 as usize + i + 1,
-                r.iter().map(text).collect::<Vec<_>>(),
-            )
-        })
-        .filter(|(_, cells)| cells.iter().any(|c| !c.is_empty()));
+    }
+    let mut rows = by_row.into_iter().map(|(r, row_cells)| {
+        let mut cells = vec![String::new(); width];
+        for (c, text) in row_cells {
+            cells[(c - col0) as usize] = text.to_string();
+        }
+        (r as usize + 1, cells)
+    });
     let Some((header_line, header)) = rows.next() else {
-        return Err(DataError::parse(
-            path,
-            0,
-            format!("sheet {sheet:?} is empty; expected a header row and one row per pose"),
-        ));
+        return Err(empty());
     };
     let header = header
         .into_iter()
@@ -351,7 +419,12 @@ fn table_from_range(
 
 /// Without the `xlsx` feature: an error telling how to proceed.
 #[cfg(not(feature = "xlsx"))]
-fn read_xlsx(path: &Path, _sheet: Option<&str>, _prefer: &str) -> Result<Table, DataError> {
+fn parse_xlsx(
+    path: &Path,
+    _bytes: Vec<u8>,
+    _sheet: Option<&str>,
+    _prefer: &str,
+) -> Result<Table, DataError> {
     Err(DataError::invalid(
         path,
         "this build cannot read .xlsx workbooks (endoloc-data without the `xlsx` feature); export the sheet to CSV (e.g. `libreoffice --headless --convert-to csv FILE.xlsx`) and give the .csv",

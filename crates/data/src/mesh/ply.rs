@@ -156,10 +156,17 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<TriMesh, DataError> {
         };
         if is_vertex {
             have_vertices = true;
-            vertices.reserve(el.count.min(1 << 24));
+            // Room for the vertices the rest of the file can hold (each property takes at
+            // least a byte), not for any count a header states.
+            let room = (bytes.len() - body_start) / el.props.len().max(1);
+            vertices.reserve(el.count.min(room));
         }
         if is_face {
             have_faces = true;
+        }
+        if el.props.is_empty() {
+            // Nothing to read however large its count: its items take no bytes.
+            continue;
         }
         let n_vertices = vertices.len();
         for i in 0..el.count {
