@@ -21,6 +21,14 @@ const H: u32 = 48;
 
 /// Stripes at `angle` (radians) and spatial frequency `freq` (radians per pixel), a random
 /// phase and noise.
+/// One training at a time in this test binary: two trainings that share the rayon pool (tests
+/// run on parallel threads) were seen to differ in the last bits of their losses, while a
+/// training run alone gives the same bits for the same seed on any thread count.
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
 fn stripes(angle: f32, freq: f32, rng: &mut ChaCha8Rng) -> image::GrayImage {
     let phase: f32 = rng.random_range(0.0..std::f32::consts::TAU);
     let (s, c) = angle.sin_cos();
@@ -141,6 +149,7 @@ fn zones_of(seq: &Sequence) -> ZoneTable {
 
 #[test]
 fn loss_falls_on_a_tiny_separable_task_and_resume_continues() {
+    let _alone = one_at_a_time();
     let tmp = tempfile::tempdir().unwrap();
     let seq = write_sequence(&tmp.path().join("train"), 1);
     let zones = zones_of(&seq);
@@ -186,6 +195,7 @@ fn loss_falls_on_a_tiny_separable_task_and_resume_continues() {
 
 #[test]
 fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras() {
+    let _alone = one_at_a_time();
     let tmp = tempfile::tempdir().unwrap();
     let seq = write_sequence(&tmp.path().join("train"), 2);
     let zones = zones_of(&seq);
@@ -410,6 +420,7 @@ fn model_folder_round_trip_gives_identical_descriptors_and_refuses_other_cameras
 
 #[test]
 fn extra_passes_join_the_training_pairs_but_not_the_database_and_bad_passes_are_named() {
+    let _alone = one_at_a_time();
     let tmp = tempfile::tempdir().unwrap();
     let seq = write_sequence(&tmp.path().join("train"), 4);
     let pass = write_sequence(&tmp.path().join("pass2"), 5);
@@ -490,6 +501,7 @@ fn mean_frame_error(clf: &ZoneClassifier, query: &Sequence) -> f64 {
 
 #[test]
 fn track_pairs_place_a_frame_along_the_pass_more_finely_than_zone_pairs() {
+    let _alone = one_at_a_time();
     let tmp = tempfile::tempdir().unwrap();
     let seq = write_smooth_sequence(&tmp.path().join("train"), 8);
     let query = write_smooth_sequence(&tmp.path().join("query"), 9);
@@ -541,6 +553,7 @@ fn loss_bits(f: &endoloc_net::train::Fitted) -> Vec<u32> {
 
 #[test]
 fn same_seed_trains_the_same_network_bit_for_bit_on_any_thread_count() {
+    let _alone = one_at_a_time();
     let tmp = tempfile::tempdir().unwrap();
     let seq = write_sequence(&tmp.path().join("train"), 3);
     let zones = zones_of(&seq);
@@ -593,6 +606,7 @@ fn write_ramped_sequence(dir: &Path, seed: u64) -> Sequence {
 /// other cameras and existing outputs refused.
 #[test]
 fn joint_pretraining_trains_on_every_colon_at_once_and_its_weights_transfer() {
+    let _alone = one_at_a_time();
     use endoloc_net::pairs::COLON_PLACE_STRIDE;
     use endoloc_net::pretrain::{PretrainColon, joint_cache, pretrain};
     let tmp = tempfile::tempdir().unwrap();
@@ -701,6 +715,7 @@ fn joint_pretraining_trains_on_every_colon_at_once_and_its_weights_transfer() {
 /// weights.
 #[test]
 fn zero_epochs_index_the_pass_with_the_start_weights_and_need_them() {
+    let _alone = one_at_a_time();
     let tmp = tempfile::tempdir().unwrap();
     let seq = write_sequence(&tmp.path().join("train"), 60);
     let zones = zones_of(&seq);
