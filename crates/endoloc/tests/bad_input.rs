@@ -243,6 +243,33 @@ fn localize(model: &Path, seq: &Path, dir: &Path) -> Vec<String> {
     ])
 }
 
+/// `classify` of `seq` with `model` into `dir/zones.csv`.
+fn classify(model: &Path, seq: &Path, dir: &Path) -> Vec<String> {
+    args(&[
+        "classify",
+        "--model",
+        &s(model),
+        "--seq",
+        &s(seq),
+        "--out",
+        &s(&dir.join("zones.csv")),
+    ])
+}
+
+/// `simulate` on colon surface `mesh` along a straight 10 mm mid-line, into `dir/sim`.
+fn simulate_mesh(mesh: &Path, dir: &Path) -> Vec<String> {
+    let path = write(&dir.join("path.csv"), "0,0,0\n0,0,10\n");
+    args(&[
+        "simulate",
+        "--mesh",
+        &s(mesh),
+        "--path",
+        &s(&path),
+        "--out",
+        &s(&dir.join("sim")),
+    ])
+}
+
 fn eval(gt: &Path, est: &Path, dir: &Path) -> Vec<String> {
     args(&[
         "eval",
@@ -331,15 +358,7 @@ fn catalogue() -> Vec<Case> {
             |fx, d| {
                 let data = data_copy(fx, d);
                 truncate(&frame(&data, "test", 1), 200);
-                args(&[
-                    "classify",
-                    "--model",
-                    &s(&fx.model),
-                    "--seq",
-                    &s(&data.join("test")),
-                    "--out",
-                    &s(&d.join("zones.csv")),
-                ])
+                classify(&fx.model, &data.join("test"), d)
             },
         ),
         // ---- poses ----
@@ -553,17 +572,7 @@ fn catalogue() -> Vec<Case> {
         case(
             "model folder from another dataset (classify)",
             &["data/train/poses.txt", "poses fingerprint"],
-            |fx, d| {
-                args(&[
-                    "classify",
-                    "--model",
-                    &s(&fx.other_model),
-                    "--seq",
-                    &s(&fx.data.join("test")),
-                    "--out",
-                    &s(&d.join("zones.csv")),
-                ])
-            },
+            |fx, d| classify(&fx.other_model, &fx.data.join("test"), d),
         ),
         case(
             "model folder from another dataset (map)",
@@ -660,15 +669,7 @@ fn catalogue() -> Vec<Case> {
             |fx, d| {
                 let m = model_copy(fx, d);
                 truncate(&m.join("whitening.bin"), 50);
-                args(&[
-                    "classify",
-                    "--model",
-                    &s(&m),
-                    "--seq",
-                    &s(&fx.data.join("test")),
-                    "--out",
-                    &s(&d.join("zones.csv")),
-                ])
+                classify(&m, &fx.data.join("test"), d)
             },
         ),
         case(
@@ -734,15 +735,7 @@ fn catalogue() -> Vec<Case> {
             &["zones.csv", "--force"],
             |fx, d| {
                 write(&d.join("zones.csv"), "mine\n");
-                args(&[
-                    "classify",
-                    "--model",
-                    &s(&fx.model),
-                    "--seq",
-                    &s(&fx.data.join("test")),
-                    "--out",
-                    &s(&d.join("zones.csv")),
-                ])
+                classify(&fx.model, &fx.data.join("test"), d)
             },
         ),
         case(
@@ -843,16 +836,7 @@ fn catalogue() -> Vec<Case> {
             &["bad.obj:4", "refers to no vertex"],
             |_, d| {
                 let mesh = write(&d.join("bad.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
-                let path = write(&d.join("path.csv"), "0,0,0\n0,0,10\n");
-                args(&[
-                    "simulate",
-                    "--mesh",
-                    &s(&mesh),
-                    "--path",
-                    &s(&path),
-                    "--out",
-                    &s(&d.join("sim")),
-                ])
+                simulate_mesh(&mesh, d)
             },
         ),
         case(
@@ -863,16 +847,7 @@ fn catalogue() -> Vec<Case> {
                     &d.join("bad.vtk"),
                     "# vtk DataFile Version 3.0\nx\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 1 0 0\n",
                 );
-                let path = write(&d.join("path.csv"), "0,0,0\n0,0,10\n");
-                args(&[
-                    "simulate",
-                    "--mesh",
-                    &s(&mesh),
-                    "--path",
-                    &s(&path),
-                    "--out",
-                    &s(&d.join("sim")),
-                ])
+                simulate_mesh(&mesh, d)
             },
         ),
         case(
