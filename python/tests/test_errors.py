@@ -12,7 +12,7 @@ import endoloc
 
 
 def test_a_missing_dataset_names_the_file():
-    with pytest.raises(endoloc.EndolocError, match=r"nowhere/dataset.toml.*No such file"):
+    with pytest.raises(endoloc.EndolocError, match=r"nowhere: no such folder"):
         endoloc.Dataset("nowhere")
 
 
