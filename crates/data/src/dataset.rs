@@ -860,7 +860,8 @@ impl Dataset {
                 ),
             ));
         }
-        Sequence::open(&self.root.join(name))
+        let c = &self.meta.camera;
+        Sequence::open_sized(&self.root.join(name), Some((c.width, c.height)))
     }
 }
 
@@ -890,6 +891,19 @@ impl Sequence {
     /// # Errors
     /// See [`Dataset::sequence`].
     pub fn open(dir: &Path) -> Result<Self, DataError> {
+        // The dataset's camera, when the sequence sits in a dataset folder.
+        let image_size = match dir.parent().map(|p| p.join(META_FILE)) {
+            Some(p) if p.is_file() => {
+                let c = DatasetMeta::read(&p)?.camera;
+                Some((c.width, c.height))
+            }
+            _ => None,
+        };
+        Self::open_sized(dir, image_size)
+    }
+
+    /// [`Sequence::open`] with the camera's image size already known (`None`: unchecked).
+    fn open_sized(dir: &Path, image_size: Option<(u32, u32)>) -> Result<Self, DataError> {
         let name = dir
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -935,15 +949,6 @@ impl Sequence {
             Some(d)
         } else {
             None
-        };
-        // The dataset's camera, when the sequence sits in a dataset folder.
-        let meta_path = dir.parent().map(|p| p.join(META_FILE));
-        let image_size = match meta_path {
-            Some(p) if p.is_file() => {
-                let c = DatasetMeta::read(&p)?.camera;
-                Some((c.width, c.height))
-            }
-            _ => None,
         };
         Ok(Sequence {
             name,
