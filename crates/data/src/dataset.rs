@@ -460,7 +460,8 @@ impl DatasetWriter {
         }
         let dir = self.shared.staging.join(name);
         let images = dir.join(IMAGES_DIR);
-        std::fs::create_dir_all(&images).map_err(|e| DataError::io(&images, e))?;
+        std::fs::create_dir_all(&images)
+            .map_err(|e| DataError::io(self.dir.join(name).join(IMAGES_DIR), e))?;
         Ok(SequenceWriter {
             name: name.to_string(),
             final_dir: self.dir.join(name),
@@ -478,8 +479,9 @@ impl DatasetWriter {
     /// [`DataError::Io`] if writing fails.
     pub fn write_mask(&mut self, mask: &image::GrayImage) -> Result<(), DataError> {
         let path = self.shared.staging.join(MASK_FILE);
-        check_mask(&path, mask, &self.meta.camera)?;
-        write_mask_png(&path, mask)?;
+        check_mask(&path, mask, &self.meta.camera)
+            .and_then(|()| write_mask_png(&path, mask))
+            .map_err(|e| e.relocated(&self.shared.staging, &self.dir))?;
         self.meta.mask = Some(MASK_FILE.to_string());
         Ok(())
     }
@@ -513,7 +515,7 @@ impl DatasetWriter {
             .meta
             .to_toml_string()
             .map_err(|m| DataError::invalid(self.dir.join(META_FILE), m))?;
-        write_atomic(&meta_path, text.as_bytes())?;
+        write_atomic(&meta_path, text.as_bytes()).map_err(|e| e.relocated(&staging, &self.dir))?;
         sync_dir(&staging);
 
         let exists = self.dir.symlink_metadata().is_ok();
@@ -607,9 +609,10 @@ impl SequenceWriter {
         channels: usize,
     ) -> Result<(), DataError> {
         let path = self.image_path(frame);
-        self.check_size(&path, width, height)?;
-        check_len(&path, width, height, channels, data.len())?;
-        write_png(&path, width, height, color, png::BitDepth::Eight, data)?;
+        self.check_size(&path, width, height)
+            .and_then(|()| check_len(&path, width, height, channels, data.len()))
+            .and_then(|()| write_png(&path, width, height, color, png::BitDepth::Eight, data))
+            .map_err(|e| e.relocated(&self.dir, &self.final_dir))?;
         lock(&self.frames).images.insert(frame);
         Ok(())
     }
@@ -658,21 +661,24 @@ impl SequenceWriter {
     ) -> Result<(), DataError> {
         let dir = self.dir.join(DEPTH_DIR);
         let path = dir.join(format!("{frame:06}.png"));
-        self.check_size(&path, width, height)?;
-        check_len(&path, width, height, 1, depth_mm.len())?;
-        let mut bytes = Vec::with_capacity(depth_mm.len() * 2);
-        for &d in depth_mm {
-            bytes.extend_from_slice(&depth_code_from_mm(d).to_be_bytes());
-        }
-        std::fs::create_dir_all(&dir).map_err(|e| DataError::io(&dir, e))?;
-        write_png(
-            &path,
-            width,
-            height,
-            png::ColorType::Grayscale,
-            png::BitDepth::Sixteen,
-            &bytes,
-        )?;
+        let write = || {
+            self.check_size(&path, width, height)?;
+            check_len(&path, width, height, 1, depth_mm.len())?;
+            let mut bytes = Vec::with_capacity(depth_mm.len() * 2);
+            for &d in depth_mm {
+                bytes.extend_from_slice(&depth_code_from_mm(d).to_be_bytes());
+            }
+            std::fs::create_dir_all(&dir).map_err(|e| DataError::io(&dir, e))?;
+            write_png(
+                &path,
+                width,
+                height,
+                png::ColorType::Grayscale,
+                png::BitDepth::Sixteen,
+                &bytes,
+            )
+        };
+        write().map_err(|e| e.relocated(&self.dir, &self.final_dir))?;
         lock(&self.frames).depth.insert(frame);
         Ok(())
     }
@@ -734,15 +740,12 @@ impl SequenceWriter {
                 ),
             ));
         }
-        write_tum(&self.dir.join(POSES_FILE), poses).map_err(|e| match e {
-            DataError::Invalid { message, .. } => {
-                DataError::invalid(self.final_dir.join(POSES_FILE), message)
-            }
-            other => other,
-        })?;
-        if let Some(s) = sections {
-            write_sections(&self.dir.join(SECTIONS_FILE), s)?;
-        }
+        write_tum(&self.dir.join(POSES_FILE), poses)
+            .and_then(|()| match sections {
+                Some(s) => write_sections(&self.dir.join(SECTIONS_FILE), s),
+                None => Ok(()),
+            })
+            .map_err(|e| e.relocated(&self.dir, &self.final_dir))?;
         sync_dir(&self.dir);
         lock(&self.shared.sequences).insert(self.name.clone(), true);
         Ok(())

@@ -92,6 +92,24 @@ impl DataError {
             message: message.into(),
         }
     }
+
+    /// The same error with a path under `from` moved under `to`: an error about a file
+    /// written in a staging folder names the file where the user will look for it.
+    pub fn relocated(mut self, from: &Path, to: &Path) -> Self {
+        match &mut self {
+            DataError::Io { path, .. }
+            | DataError::Parse { path, .. }
+            | DataError::AlreadyExists { path }
+            | DataError::Image { path, .. }
+            | DataError::Invalid { path, .. } => {
+                if let Ok(rest) = path.strip_prefix(from) {
+                    *path = to.join(rest);
+                }
+            }
+            DataError::Anatomy { .. } => {}
+        }
+        self
+    }
 }
 
 /// Where a TOML error is and what it says, for one-line messages: the 1-based line of its

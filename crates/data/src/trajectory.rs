@@ -112,29 +112,40 @@ pub fn parse_tum(path: &Path, text: &str) -> Result<Vec<StampedPose>, DataError>
     parse_tum_text(text).map_err(|(line, message)| DataError::parse(path, line, message))
 }
 
+/// The comment line that starts every TUM trajectory endoloc writes (with its line break).
+pub const TUM_HEADER: &str =
+    "# endoloc trajectory (TUM): timestamp[s] tx ty tz[mm] qx qy qz qw; T_wc camera-to-world\n";
+
+/// Appends one TUM line (with its line break) for `p` to `out`: timestamp with microsecond
+/// resolution, translation (mm) with 9 decimals, quaternion with 12 and `qw ≥ 0`, so that
+/// reading gives back the pose to better than 1e-9 in every component.
+///
+/// # Errors
+/// A message quoting the values when one is not finite (nothing is appended).
+pub fn format_tum_line(p: &StampedPose, out: &mut String) -> Result<(), String> {
+    let t = p.pose.translation.vector;
+    let q = canonical_quaternion(p.pose.rotation);
+    let all = [p.timestamp_s, t.x, t.y, t.z, q.i, q.j, q.k, q.w];
+    if !all.iter().all(|v| v.is_finite()) {
+        return Err(format!("a non-finite value: {all:?}"));
+    }
+    let _ = writeln!(
+        out,
+        "{:.6} {:.9} {:.9} {:.9} {:.12} {:.12} {:.12} {:.12}",
+        p.timestamp_s, t.x, t.y, t.z, q.i, q.j, q.k, q.w
+    );
+    Ok(())
+}
+
 /// Formats poses as TUM text with a header comment (see [`write_tum`]).
 ///
 /// # Errors
 /// A message naming the first pose (0-based) with a non-finite value.
 pub(crate) fn format_tum(poses: &[StampedPose]) -> Result<String, String> {
     let mut s = String::with_capacity(64 + poses.len() * 120);
-    s.push_str(
-        "# endoloc trajectory (TUM): timestamp[s] tx ty tz[mm] qx qy qz qw; T_wc camera-to-world\n",
-    );
+    s.push_str(TUM_HEADER);
     for (i, p) in poses.iter().enumerate() {
-        let t = p.pose.translation.vector;
-        let q = canonical_quaternion(p.pose.rotation);
-        let all = [p.timestamp_s, t.x, t.y, t.z, q.i, q.j, q.k, q.w];
-        if !all.iter().all(|v| v.is_finite()) {
-            return Err(format!("pose {i} has a non-finite value: {all:?}"));
-        }
-        // 9 decimals for mm (nm resolution), 12 for the quaternion: reading gives back the
-        // pose to better than 1e-9 in every component.
-        let _ = writeln!(
-            s,
-            "{:.6} {:.9} {:.9} {:.9} {:.12} {:.12} {:.12} {:.12}",
-            p.timestamp_s, t.x, t.y, t.z, q.i, q.j, q.k, q.w
-        );
+        format_tum_line(p, &mut s).map_err(|m| format!("pose {i} has {m}"))?;
     }
     Ok(s)
 }

@@ -1004,7 +1004,7 @@ fn mounted_cases(fx: &Fixture) -> Vec<MountedCase> {
                 "--out",
                 &s(&full.join("sim")),
             ]),
-            &["No space left on device"],
+            &["full/sim/", "No space left on device"],
         ),
         (
             "read-only output folder (localize)",

@@ -45,6 +45,42 @@ struct Setup {
 }
 
 /// A tiny dataset and a one-epoch model with its map.
+/// The three files of a localization run agree with each other: `frames.csv` lists frames
+/// 0..n in order, `trajectory.txt` has a line per frame with a pose (in frame order), and
+/// `inliers.csv` holds as many keypoints of each refined frame as its `inliers` column.
+fn check_run_files(run: &Path, n: usize) {
+    let read = |f: &str| std::fs::read_to_string(run.join(f)).unwrap();
+    let frames = read("frames.csv");
+    let rows: Vec<Vec<&str>> = frames
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), n, "{frames}");
+    let mut with_pose = 0;
+    let mut inliers = vec![0usize; n];
+    for l in read("inliers.csv").lines().skip(1) {
+        inliers[l.split(',').next().unwrap().parse::<usize>().unwrap()] += 1;
+    }
+    for (i, row) in rows.iter().enumerate() {
+        assert_eq!(row[0], i.to_string(), "frames.csv out of order: {row:?}");
+        if row[5] != "none" {
+            with_pose += 1;
+        }
+        if row[3] == "refined" {
+            assert_eq!(row[6], inliers[i].to_string(), "frame {i}: {row:?}");
+        }
+    }
+    let trajectory = read("trajectory.txt");
+    let stamps: Vec<f64> = trajectory
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split(' ').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(stamps.len(), with_pose, "{trajectory}");
+    assert!(stamps.windows(2).all(|w| w[0] < w[1]), "{trajectory}");
+}
+
 fn setup() -> Setup {
     let tmp = tempfile::tempdir().unwrap();
     let root = tmp.path().to_path_buf();
@@ -110,6 +146,18 @@ fn every_method_and_experiment_writes_its_outputs() {
         41,
         "header + one row per test frame"
     );
+    check_run_files(&st.root.join("run"), 40);
+    // Per frame: frames are localized in parallel blocks and written in frame order.
+    ok(&[
+        "localize",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--out",
+        &r("run-per-frame"),
+    ]);
+    check_run_files(&st.root.join("run-per-frame"), 40);
     ok(&[
         "eval",
         "--gt",

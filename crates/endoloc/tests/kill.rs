@@ -1,5 +1,5 @@
-//! Kill-safety: `simulate`, `train`, `map`, `localize` and an experiment are killed with
-//! SIGKILL at random moments. Afterwards no output folder is half-written, a result that a
+//! Kill-safety: `simulate`, `train`, `map`, `localize`, `eval`, `view` and an experiment are
+//! killed with SIGKILL at random moments. Afterwards no output folder is half-written, a result that a
 //! `--force` run was replacing is intact, and `train --resume` and the experiment's resume
 //! finish with the same figures as an uninterrupted run.
 //!
@@ -292,6 +292,39 @@ fn killed_runs_leave_no_half_written_output_and_resume_to_the_same_figures() {
         } else {
             // Finished before the kill (its per-frame times differ): the new reference.
             results = snapshot(&run);
+        }
+    }
+
+    // eval and view: a killed --force run leaves the earlier report and page.
+    let eval = |force: bool| {
+        let mut a = args(&["eval", "--gt", &s(&data.join("test/poses.txt"))]);
+        a.extend([
+            "--est".into(),
+            s(&run.join("trajectory.txt")),
+            "--out".into(),
+            s(&run.join("eval")),
+        ]);
+        if force {
+            a.push("--force".into());
+        }
+        a
+    };
+    let view = |force: bool| {
+        let mut a = args(&["view", &s(&run), "--out", &s(&run.join("view.html"))]);
+        if force {
+            a.push("--force".into());
+        }
+        a
+    };
+    for command in [&eval as &dyn Fn(bool) -> Vec<String>, &view] {
+        let full = run_ok(&command(false));
+        let mut results = snapshot(&run);
+        for _ in 0..3 {
+            if kill_after(&command(true), moments.within(full)) {
+                assert_same(&run, &results, "results after a killed eval/view --force");
+            } else {
+                results = snapshot(&run);
+            }
         }
     }
 

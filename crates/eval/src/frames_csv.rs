@@ -237,48 +237,56 @@ pub fn format_frames_csv(rows: &[FrameRecord]) -> Result<String, String> {
     s.push_str(FRAMES_CSV_HEADER);
     s.push('\n');
     for (i, r) in rows.iter().enumerate() {
-        for (name, word) in [("reason", &r.reason), ("source", &r.source)] {
-            if word.contains([',', '"', '\n', '\r']) {
-                return Err(format!(
-                    "row {i} (frame {}): {name} {word:?} holds a comma, quote or line break; expected a keyword",
-                    r.frame
-                ));
-            }
-        }
-        let finite = [
-            r.zone_score,
-            r.reprojection_rms_px,
-            r.position_std_mm,
-            r.orientation_std_deg,
-            Some(r.time_ms),
-        ]
-        .iter()
-        .all(|v| v.is_none_or(f64::is_finite));
-        if !finite {
+        format_frames_csv_row(r, &mut s).map_err(|m| format!("row {i} {m}"))?;
+    }
+    Ok(s)
+}
+
+/// Appends one `frames.csv` row (with its line break) to `out`, in the column order of
+/// [`FRAMES_CSV_HEADER`].
+///
+/// # Errors
+/// A message naming the frame when `reason` or `source` holds a comma, quote or line break,
+/// or a number is not finite (nothing is appended).
+pub fn format_frames_csv_row(r: &FrameRecord, out: &mut String) -> Result<(), String> {
+    for (name, word) in [("reason", &r.reason), ("source", &r.source)] {
+        if word.contains([',', '"', '\n', '\r']) {
             return Err(format!(
-                "row {i} (frame {}): a number is not finite",
+                "(frame {}): {name} {word:?} holds a comma, quote or line break; expected a keyword",
                 r.frame
             ));
         }
-        let zone = r.zone.map(|z| z.to_string()).unwrap_or_else(|| "-1".into());
-        let inliers = r.inliers.map(|n| n.to_string()).unwrap_or_default();
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{},{},{},{},{},{},{}",
-            r.frame,
-            zone,
-            fmt_opt_f64(r.zone_score),
-            r.status.as_str(),
-            r.reason,
-            r.source,
-            inliers,
-            fmt_opt_f64(r.reprojection_rms_px),
-            fmt_opt_f64(r.position_std_mm),
-            fmt_opt_f64(r.orientation_std_deg),
-            r.time_ms
-        );
     }
-    Ok(s)
+    let finite = [
+        r.zone_score,
+        r.reprojection_rms_px,
+        r.position_std_mm,
+        r.orientation_std_deg,
+        Some(r.time_ms),
+    ]
+    .iter()
+    .all(|v| v.is_none_or(f64::is_finite));
+    if !finite {
+        return Err(format!("(frame {}): a number is not finite", r.frame));
+    }
+    let zone = r.zone.map(|z| z.to_string()).unwrap_or_else(|| "-1".into());
+    let inliers = r.inliers.map(|n| n.to_string()).unwrap_or_default();
+    let _ = writeln!(
+        out,
+        "{},{},{},{},{},{},{},{},{},{},{}",
+        r.frame,
+        zone,
+        fmt_opt_f64(r.zone_score),
+        r.status.as_str(),
+        r.reason,
+        r.source,
+        inliers,
+        fmt_opt_f64(r.reprojection_rms_px),
+        fmt_opt_f64(r.position_std_mm),
+        fmt_opt_f64(r.orientation_std_deg),
+        r.time_ms
+    );
+    Ok(())
 }
 
 /// Writes `frames.csv` atomically (temporary file in the same folder, then rename).

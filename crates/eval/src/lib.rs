@@ -45,7 +45,7 @@ pub use experiment_plots::{
 };
 pub use frames_csv::{
     BOUND95_PER_STD, FRAMES_CSV_HEADER, FRAMES_CSV_HEADER_V1, FrameRecord, format_frames_csv,
-    parse_frames_csv, read_frames_csv, write_frames_csv,
+    format_frames_csv_row, parse_frames_csv, read_frames_csv, write_frames_csv,
 };
 pub use html::{Block, HtmlReport};
 pub use metrics::{

@@ -9,7 +9,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::bail;
 use crate::error::{Context, JobError, Result};
-use crate::localize::RunSummary;
 use crate::output::{create_dir, replace_folder};
 use crate::progress::Progress;
 use crate::{EvalJob, LocalizeJob, MapJob, SimulateJob, TrainJob, ViewJob};
@@ -369,14 +368,14 @@ impl DemoJob {
         let page = t.stage(progress, "6/6 view", view.command_line(), || {
             view.run(progress)
         })?;
-        let summary = RunSummary::of(&run.frames);
+        let summary = run.summary.unwrap_or_default();
         let m = &evaluated.evaluation.metrics;
         Ok(DemoReport {
             timings: t,
-            refined: summary.refined,
+            refined: summary.refined(),
             position_mm: (m.position_mm.mean, m.position_mm.median),
             orientation_deg: (m.orientation_deg.mean, m.orientation_deg.median),
-            median_ms: summary.median_ms,
+            median_ms: summary.median_ms(),
             report: p("run/eval/report.md"),
             view: page.out,
         })

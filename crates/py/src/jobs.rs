@@ -366,9 +366,10 @@ pub fn run_job(
         "localize" => {
             let job: LocalizeJob = job_from_table(name, t)?;
             execute(py, name, job, progress, |j, p| {
-                let mut r = j.run(p)?;
+                let mut frames = Vec::new();
+                let r = j.run_with(p, &mut |f| frames.push(f))?;
                 let mut o = Outcome::new(&r, non_empty(&j.out));
-                o.frames = std::mem::take(&mut r.frames);
+                o.frames = frames;
                 Ok(o)
             })
         }

@@ -6,14 +6,21 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use endoloc_data::{Dataset, Sequence, StampedPose};
-use endoloc_eval::{FrameRecord, write_frames_csv};
 use endoloc_features::Mask;
-use endoloc_geometry::Status;
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, MotionConfig};
 use endoloc_net::ZoneClassifier;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+
+mod results;
+mod summary;
+
+pub use results::{
+    FRAMES_FILE, INLIERS_FILE, ResultWriter, TRAJECTORY_FILE, frame_record, frame_records,
+    inliers_csv, parse_inliers_csv, read_inliers_csv,
+};
+pub use summary::{LatencyHistogram, RunSummary};
 
 use crate::bail;
 use crate::baselines::{self, Estimates};
@@ -149,8 +156,8 @@ pub const LOCALIZE_FILE: &str = "localize.toml";
 /// What `LocalizeJob` did.
 #[derive(Debug, Clone)]
 pub struct LocalizeReport {
-    /// Per-frame results (endoloc only; empty for baselines).
-    pub frames: Vec<FrameResult>,
+    /// Counts and latencies (endoloc only; `None` for baselines).
+    pub summary: Option<RunSummary>,
     /// Frames of the sequence.
     pub frame_count: usize,
     /// Frames with a pose.
@@ -228,7 +235,20 @@ impl LocalizeJob {
     /// Existing results without `force`, a missing model or map, a model for another camera,
     /// an unreadable image, or a failed write.
     pub fn run(&self, progress: &dyn Progress) -> Result<LocalizeReport> {
-        for f in ["trajectory.txt", "frames.csv"] {
+        self.run_with(progress, &mut |_| {})
+    }
+
+    /// Like [`LocalizeJob::run`], and hands each frame's result (method `endoloc`), in frame
+    /// order, to `on_frame` once its rows are written; the run itself keeps none of them.
+    ///
+    /// # Errors
+    /// As [`LocalizeJob::run`].
+    pub fn run_with(
+        &self,
+        progress: &dyn Progress,
+        on_frame: &mut dyn FnMut(FrameResult),
+    ) -> Result<LocalizeReport> {
+        for f in [TRAJECTORY_FILE, FRAMES_FILE] {
             crate::output::refuse_existing(
                 &self.out.join(f),
                 self.force,
@@ -257,38 +277,51 @@ impl LocalizeJob {
             })?;
         let n = seq.len();
         let t = Instant::now();
-        let frames = {
-            let bar = bar(
-                progress,
-                n as u64,
-                if self.live { "live" } else { "localize" },
-            );
-            // An unreadable frame is reported and skipped, unless `strict`.
-            let load = |i: usize| -> Result<std::result::Result<image::GrayImage, FrameResult>> {
-                match seq.load_gray(i) {
-                    Ok(img) => Ok(Ok(img)),
-                    Err(e) if !self.strict => {
-                        progress.note(&format!(
-                            "warning: frame {i} rejected (unreadable_image): {e}"
-                        ));
-                        Ok(Err(FrameResult::unreadable(e.to_string())))
-                    }
-                    Err(e) => Err(e.into()),
+        // Rows are written as frames finish, in frame order; nothing of a frame is kept.
+        let staged = crate::output::StagedFiles::new(&self.out)?;
+        let mut writer = ResultWriter::create(&staged, &self.out, &seq)?;
+        let mut summary = RunSummary::default();
+        let mut with_pose = 0;
+        let mut emit = |r: FrameResult| -> Result<()> {
+            writer.push(&r)?;
+            summary.add(&r);
+            with_pose += usize::from(r.t_wc.is_some());
+            on_frame(r);
+            Ok(())
+        };
+        let bar = bar(
+            progress,
+            n as u64,
+            if self.live { "live" } else { "localize" },
+        );
+        // An unreadable frame is reported and skipped, unless `strict`.
+        let load = |i: usize| -> Result<std::result::Result<image::GrayImage, FrameResult>> {
+            match seq.load_gray(i) {
+                Ok(img) => Ok(Ok(img)),
+                Err(e) if !self.strict => {
+                    progress.note(&format!(
+                        "warning: frame {i} rejected (unreadable_image): {e}"
+                    ));
+                    Ok(Err(FrameResult::unreadable(e.to_string())))
                 }
-            };
-            if self.live {
-                let mut state = localizer.live_state();
-                let mut out = Vec::with_capacity(n);
-                for i in 0..n {
-                    out.push(match load(i)? {
-                        Ok(img) => localizer.localize_live(&mut state, &img)?,
-                        Err(unreadable) => unreadable,
-                    });
-                    bar.inc(1);
-                }
-                out
-            } else {
-                (0..n)
+                Err(e) => Err(e.into()),
+            }
+        };
+        if self.live {
+            let mut state = localizer.live_state();
+            for i in 0..n {
+                emit(match load(i)? {
+                    Ok(img) => localizer.localize_live(&mut state, &img)?,
+                    Err(unreadable) => unreadable,
+                })?;
+                bar.inc(1);
+            }
+        } else {
+            // Frames are independent: localized in parallel a block at a time, so that at
+            // most one block of results waits to be written.
+            let block = 16 * rayon::current_num_threads().max(1);
+            for start in (0..n).step_by(block) {
+                let results = (start..(start + block).min(n))
                     .into_par_iter()
                     .map(|i| {
                         let r = match load(i)? {
@@ -298,20 +331,22 @@ impl LocalizeJob {
                         bar.inc(1);
                         Ok(r)
                     })
-                    .collect::<Result<Vec<FrameResult>>>()?
+                    .collect::<Result<Vec<FrameResult>>>()?;
+                for r in results {
+                    emit(r)?;
+                }
             }
-        };
+        }
+        drop(bar);
         let wall_s = t.elapsed().as_secs_f64();
-        let staged = crate::output::StagedFiles::new(&self.out)?;
-        write_result_files(&staged, &seq, &frames)?;
+        writer.finish()?;
         self.save_to(&staged.path(LOCALIZE_FILE))?;
         staged.publish()?;
-        let with_pose = frames.iter().filter(|r| r.t_wc.is_some()).count();
         Ok(LocalizeReport {
             frame_count: n,
             with_pose,
             ms_per_frame: 1e3 * wall_s / n.max(1) as f64,
-            frames,
+            summary: Some(summary),
             wall_s,
             note: None,
             out: self.out.clone(),
@@ -400,11 +435,11 @@ impl LocalizeJob {
         };
         let staged = crate::output::StagedFiles::new(&self.out)?;
         let trajectory = stamped(&seq, est.poses.iter().copied());
-        endoloc_data::write_tum(&staged.path("trajectory.txt"), &trajectory)?;
+        endoloc_data::write_tum(&staged.path(TRAJECTORY_FILE), &trajectory)?;
         self.save_to(&staged.path(LOCALIZE_FILE))?;
         staged.publish()?;
         Ok(LocalizeReport {
-            frames: Vec::new(),
+            summary: None,
             frame_count: seq.len(),
             with_pose: trajectory.len(),
             ms_per_frame: est.ms_per_frame,
@@ -497,194 +532,9 @@ fn stamped(
         .collect()
 }
 
-/// Writes `trajectory.txt`, `frames.csv` and `inliers.csv` of a localization run into `out`
-/// (staged next to it and moved in together, [`crate::output::StagedFiles`]).
-///
-/// # Errors
-/// A folder or file that cannot be written.
-pub fn write_results(out: &Path, seq: &Sequence, results: &[FrameResult]) -> Result<()> {
-    let staged = crate::output::StagedFiles::new(out)?;
-    write_result_files(&staged, seq, results)?;
-    staged.publish()
-}
-
-fn write_result_files(
-    staged: &crate::output::StagedFiles,
-    seq: &Sequence,
-    results: &[FrameResult],
-) -> Result<()> {
-    let trajectory = stamped(seq, results.iter().map(|r| r.t_wc));
-    endoloc_data::write_tum(&staged.path("trajectory.txt"), &trajectory)?;
-    write_frames_csv(&staged.path("frames.csv"), &frame_records(results))?;
-    endoloc_data::write_atomic(&staged.path(INLIERS_FILE), inliers_csv(results).as_bytes())?;
-    Ok(())
-}
-
-/// The file of a localization run that lists the inlier keypoints of every frame.
-pub const INLIERS_FILE: &str = "inliers.csv";
-
-/// `inliers.csv`: header `frame,x_px,y_px`, then one row per inlier keypoint of each frame's
-/// final estimate (pixels, origin at the centre of the top-left pixel).
-pub fn inliers_csv(results: &[FrameResult]) -> String {
-    use std::fmt::Write as _;
-    let mut csv = String::from("frame,x_px,y_px\n");
-    for (i, r) in results.iter().enumerate() {
-        for [x, y] in &r.inlier_px {
-            let _ = writeln!(csv, "{i},{x:.2},{y:.2}");
-        }
-    }
-    csv
-}
-
-/// Reads an `inliers.csv`: the inlier keypoints of each of `frames` frames.
-///
-/// # Errors
-/// A row that is not `frame,x_px,y_px` with numbers, or a frame index out of range, named by
-/// its line.
-pub fn read_inliers_csv(path: &Path, frames: usize) -> Result<Vec<Vec<[f32; 2]>>> {
-    let text = std::fs::read_to_string(path).map_err(|e| JobError::io(path, e))?;
-    parse_inliers_csv(path, &text, frames)
-}
-
-/// Parses the text of an `inliers.csv` (see [`read_inliers_csv`]); `path` names the file in
-/// errors.
-///
-/// # Errors
-/// A row that is not `frame,x_px,y_px` with numbers, or a frame index out of range, named by
-/// its line.
-pub fn parse_inliers_csv(path: &Path, text: &str, frames: usize) -> Result<Vec<Vec<[f32; 2]>>> {
-    let mut out = vec![Vec::new(); frames];
-    for (k, line) in text.lines().enumerate().skip(1) {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let bad = || {
-            JobError::Invalid(format!(
-                "{} line {}: expected `frame,x_px,y_px` with a frame below {frames}, found {line:?}",
-                path.display(),
-                k + 1
-            ))
-        };
-        let mut cols = line.split(',').map(str::trim);
-        let (Some(f), Some(x), Some(y), None) =
-            (cols.next(), cols.next(), cols.next(), cols.next())
-        else {
-            return Err(bad());
-        };
-        let (Ok(f), Ok(x), Ok(y)) = (f.parse::<usize>(), x.parse::<f32>(), y.parse::<f32>()) else {
-            return Err(bad());
-        };
-        if f >= frames || !x.is_finite() || !y.is_finite() {
-            return Err(bad());
-        }
-        out[f].push([x, y]);
-    }
-    Ok(out)
-}
-
-/// The `frames.csv` rows of a run, one per frame in order.
-pub fn frame_records(results: &[FrameResult]) -> Vec<FrameRecord> {
-    results
-        .iter()
-        .enumerate()
-        .map(|(i, r)| FrameRecord {
-            frame: i,
-            zone: r.has_zone().then_some(r.zone),
-            zone_score: r.has_zone().then_some(r.zone_score as f64),
-            status: r.status,
-            reason: r
-                .reason
-                .as_ref()
-                .map_or(String::new(), |x| x.code().to_string()),
-            source: r.source.as_str().to_string(),
-            inliers: r.has_zone().then_some(r.inliers),
-            reprojection_rms_px: r
-                .reprojection_rms_px
-                .is_finite()
-                .then_some(r.reprojection_rms_px),
-            position_std_mm: r.position_std_mm.is_finite().then_some(r.position_std_mm),
-            orientation_std_deg: r
-                .orientation_std_deg
-                .is_finite()
-                .then_some(r.orientation_std_deg),
-            time_ms: r.times.total_ms(),
-        })
-        .collect()
-}
-
-/// Counts per status and per-stage median latency of a run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunSummary {
-    /// Frames.
-    pub frames: usize,
-    /// Fractions `refined`, `init_only`, `rejected`, in [0, 1].
-    pub refined: f64,
-    /// See [`RunSummary::refined`].
-    pub init_only: f64,
-    /// See [`RunSummary::refined`].
-    pub rejected: f64,
-    /// Frames whose image could not be read (counted in `rejected`).
-    pub unreadable: usize,
-    /// Median total time per frame, ms.
-    pub median_ms: f64,
-    /// Median zone, SURF, matching and refinement times, ms.
-    pub median_stage_ms: [f64; 4],
-}
-
-impl RunSummary {
-    /// The summary of `results`.
-    pub fn of(results: &[FrameResult]) -> Self {
-        let n = results.len().max(1) as f64;
-        let count = |s: Status| results.iter().filter(|r| r.status == s).count() as f64 / n;
-        let median = |f: &dyn Fn(&FrameResult) -> f64| {
-            let mut v: Vec<f64> = results.iter().map(f).collect();
-            v.sort_by(f64::total_cmp);
-            v.get(v.len() / 2).copied().unwrap_or(0.0)
-        };
-        RunSummary {
-            frames: results.len(),
-            refined: count(Status::Refined),
-            init_only: count(Status::InitOnly),
-            rejected: count(Status::Rejected),
-            unreadable: results.iter().filter(|r| !r.has_zone()).count(),
-            median_ms: median(&|r| r.times.total_ms()),
-            median_stage_ms: [
-                median(&|r| r.times.zone_ms),
-                median(&|r| r.times.surf_ms),
-                median(&|r| r.times.matching_ms),
-                median(&|r| r.times.refine_ms),
-            ],
-        }
-    }
-}
-
-impl fmt::Display for RunSummary {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let unreadable = if self.unreadable > 0 {
-            format!(" ({} unreadable images)", self.unreadable)
-        } else {
-            String::new()
-        };
-        writeln!(
-            f,
-            "frames    {} — refined {:.1} %, init_only {:.1} %, rejected {:.1} %{unreadable}",
-            self.frames,
-            100.0 * self.refined,
-            100.0 * self.init_only,
-            100.0 * self.rejected,
-        )?;
-        let [zone, surf, matching, refine] = self.median_stage_ms;
-        write!(
-            f,
-            "latency   median per frame {:.1} ms (zone {zone:.1}, SURF {surf:.1}, matching {matching:.1}, refine {refine:.2})",
-            self.median_ms
-        )
-    }
-}
-
 impl fmt::Display for LocalizeReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.frames.is_empty() {
+        let Some(summary) = &self.summary else {
             if let Some(note) = &self.note {
                 writeln!(f, "{note}")?;
             }
@@ -697,16 +547,11 @@ impl fmt::Display for LocalizeReport {
                 self.ms_per_frame
             )?;
             return write!(f, "wrote     {}/trajectory.txt", self.out.display());
-        }
-        writeln!(
-            f,
-            "{}; {:.1} s wall",
-            RunSummary::of(&self.frames),
-            self.wall_s
-        )?;
+        };
+        writeln!(f, "{summary}; {:.1} s wall", self.wall_s)?;
         write!(
             f,
-            "wrote     {}/trajectory.txt, frames.csv",
+            "wrote     {}/trajectory.txt, frames.csv, inliers.csv",
             self.out.display()
         )
     }
