@@ -79,14 +79,17 @@ impl Moments {
     }
 }
 
-/// Every file under `dir` (relative path → bytes), without the hidden temporary files a write
-/// killed half-way leaves (`.NAME.tmp-PID-N`, `.NAME.staging-PID-N`): never a visible file.
+/// Every file under `dir` (relative path → bytes), without the hidden files a write killed
+/// half-way leaves (`.NAME.tmp-PID-N`, `.NAME.staging-PID-N`, the earlier map's
+/// `.map.*.prev`): never a visible file.
 fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
     fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<PathBuf, Vec<u8>>) {
         for e in std::fs::read_dir(dir).unwrap() {
             let p = e.unwrap().path();
             let name = p.file_name().unwrap().to_string_lossy().into_owned();
-            if name.starts_with('.') && (name.contains(".tmp-") || name.contains(".staging-")) {
+            if name.starts_with('.')
+                && (name.contains(".tmp-") || name.contains(".staging-") || name.ends_with(".prev"))
+            {
                 continue;
             }
             if p.is_dir() {

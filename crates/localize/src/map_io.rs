@@ -45,9 +45,16 @@ fn file_err(path: &Path, e: impl std::fmt::Display) -> LocalizeError {
     }
 }
 
+/// The earlier map's files, kept (as hard links) while a new map replaces them.
+const PREV_BIN: &str = ".map.bin.prev";
+/// See [`PREV_BIN`].
+const PREV_TOML: &str = ".map.toml.prev";
+
 /// Writes `map.bin` and then `map.toml` into `dir`, each atomically (temporary file, rename).
-/// `map.toml` records `map.bin`'s fingerprint, so a pair from two builds (a run killed
-/// between the two renames) is refused by [`load_map`] instead of being used.
+/// `map.toml` records `map.bin`'s fingerprint, so a pair from two builds is never used. While
+/// the two files are replaced, the earlier pair stays reachable as `.map.bin.prev` and
+/// `.map.toml.prev`: a run killed between the two renames leaves the new `map.bin` beside the
+/// earlier `map.toml`, and [`load_map`] then reads the earlier map whole.
 ///
 /// # Errors
 /// [`LocalizeError::File`] on I/O errors.
@@ -66,8 +73,45 @@ pub fn save_map(map: &Map, dir: &Path) -> Result<(), LocalizeError> {
     };
     let toml_path = dir.join("map.toml");
     let text = toml::to_string_pretty(&meta).map_err(|e| file_err(&toml_path, e))?;
+    keep_previous(dir)?;
     write_atomic(&dir.join("map.bin"), &bin)?;
-    write_atomic(&toml_path, text.as_bytes())
+    write_atomic(&toml_path, text.as_bytes())?;
+    for name in [PREV_BIN, PREV_TOML] {
+        remove_if_present(&dir.join(name))?;
+    }
+    Ok(())
+}
+
+/// Keeps the current `map.bin` and `map.toml` of `dir` reachable as [`PREV_BIN`] and
+/// [`PREV_TOML`] (hard links, or copies where the file system has none) — unless they do not
+/// form a pair. Backups left by a killed run are replaced.
+fn keep_previous(dir: &Path) -> Result<(), LocalizeError> {
+    let (bin, toml_path) = (dir.join("map.bin"), dir.join("map.toml"));
+    let (prev_bin, prev_toml) = (dir.join(PREV_BIN), dir.join(PREV_TOML));
+    // A killed run's backups are the map to keep when the current files do not pair.
+    if prev_bin.is_file() && prev_toml.is_file() && read_pair(dir, "map.toml", "map.bin").is_err() {
+        return Ok(());
+    }
+    for p in [&prev_bin, &prev_toml] {
+        remove_if_present(p)?;
+    }
+    if !(bin.is_file() && toml_path.is_file()) {
+        return Ok(());
+    }
+    for (from, to) in [(&bin, &prev_bin), (&toml_path, &prev_toml)] {
+        if std::fs::hard_link(from, to).is_err() {
+            std::fs::copy(from, to).map_err(|e| file_err(to, e))?;
+        }
+    }
+    endoloc_data::fsutil::sync_dir(dir);
+    Ok(())
+}
+
+fn remove_if_present(path: &Path) -> Result<(), LocalizeError> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(file_err(path, e)),
+        _ => Ok(()),
+    }
 }
 
 /// `map.bin`'s bytes (module doc).
@@ -104,39 +148,71 @@ fn map_bytes(map: &Map) -> Vec<u8> {
     buf
 }
 
-/// Reads a map written by [`save_map`].
+/// Reads a map written by [`save_map`]. When `map.bin` does not belong to `map.toml` (a
+/// `map` run killed between its two renames) but the earlier `map.bin` kept beside them does,
+/// that earlier map is read, with a warning.
 ///
 /// # Errors
 /// [`LocalizeError::File`] for a missing, truncated or foreign file (naming it and what was
 /// expected).
 pub fn load_map(dir: &Path) -> Result<Map, LocalizeError> {
-    let toml_path = dir.join("map.toml");
+    let (meta, bytes) = match read_pair(dir, "map.toml", "map.bin") {
+        Err(PairError::Mismatch(e)) => match read_pair(dir, "map.toml", PREV_BIN) {
+            Ok(pair) => {
+                tracing::warn!(
+                    "{}: map.bin is from an interrupted `endoloc map`; using the earlier map \
+                     ({PREV_BIN}); run endoloc map --force to build the new one",
+                    dir.display()
+                );
+                pair
+            }
+            Err(_) => return Err(e),
+        },
+        Err(PairError::Other(e)) => return Err(e),
+        Ok(pair) => pair,
+    };
+    map_from_parts(meta, &dir.join("map.bin"), &bytes)
+}
+
+/// Why a `map.toml` and a `map.bin` could not be read as one map.
+enum PairError {
+    /// Both read, but the bin is not the one the toml records.
+    Mismatch(LocalizeError),
+    /// A file is missing or unreadable.
+    Other(LocalizeError),
+}
+
+/// Reads `dir/toml_name` and `dir/bin_name` and checks that the bin is the one the toml
+/// records (when it records one).
+fn read_pair(dir: &Path, toml_name: &str, bin_name: &str) -> Result<(MapMeta, Vec<u8>), PairError> {
+    let toml_path = dir.join(toml_name);
     let text = std::fs::read_to_string(&toml_path).map_err(|e| {
-        file_err(
+        PairError::Other(file_err(
             &toml_path,
             format!("{e} (build the map first: endoloc map --model …)"),
-        )
+        ))
     })?;
-    let meta: MapMeta = toml::from_str(&text).map_err(|e| file_err(&toml_path, e))?;
-    let bin_path = dir.join("map.bin");
+    let meta: MapMeta =
+        toml::from_str(&text).map_err(|e| PairError::Other(file_err(&toml_path, e)))?;
+    let bin_path = dir.join(bin_name);
     let mut bytes = Vec::new();
     std::fs::File::open(&bin_path)
         .and_then(|mut f| f.read_to_end(&mut bytes))
-        .map_err(|e| file_err(&bin_path, e))?;
+        .map_err(|e| PairError::Other(file_err(&bin_path, e)))?;
     if let Some(recorded) = &meta.bin {
         let found = Fingerprint::of_bytes(&bytes);
         if &found != recorded {
-            return Err(file_err(
+            return Err(PairError::Mismatch(file_err(
                 &bin_path,
                 format!(
                     "fingerprint {found}, but map.toml records {recorded}: the two files come \
                      from different builds (an interrupted `endoloc map`?); rebuild the map with \
                      endoloc map --force"
                 ),
-            ));
+            )));
         }
     }
-    map_from_parts(meta, &bin_path, &bytes)
+    Ok((meta, bytes))
 }
 
 /// Parses a map from the text of its `map.toml` and the bytes of its `map.bin` (see

@@ -120,6 +120,30 @@ fn map_points_lie_on_the_rendered_surface_and_round_trip() {
     }
     assert_eq!(back.camera, map.camera);
 
+    // A rebuild killed between its two renames: the new map.bin beside the earlier map.toml.
+    // The earlier map is read whole from the copy kept beside them, and the next build
+    // finishes cleanly.
+    let mut other = map.clone();
+    other.zones[0].points.truncate(1);
+    let other_dir = tmp.path().join("other");
+    std::fs::create_dir_all(&other_dir).unwrap();
+    save_map(&other, &other_dir).unwrap();
+    for (from, to) in [("map.bin", ".map.bin.prev"), ("map.toml", ".map.toml.prev")] {
+        std::fs::hard_link(dir.join(from), dir.join(to)).unwrap();
+    }
+    // (renamed over map.bin, as the build does: the kept hard link holds the earlier bytes)
+    std::fs::rename(other_dir.join("map.bin"), dir.join("map.bin")).unwrap();
+    let back = load_map(&dir).unwrap();
+    assert_eq!(back.zones[0].points, map.zones[0].points, "the earlier map");
+    save_map(&other, &dir).unwrap();
+    assert_eq!(
+        load_map(&dir).unwrap().zones[0].points.len(),
+        1,
+        "the new map"
+    );
+    assert!(!dir.join(".map.bin.prev").exists() && !dir.join(".map.toml.prev").exists());
+    save_map(&map, &dir).unwrap();
+
     // A truncated map.bin is an error naming the file: map.toml's fingerprint of map.bin
     // catches it, and without that record (older maps) the reader does.
     let bin = dir.join("map.bin");
