@@ -836,11 +836,7 @@ impl Dataset {
     /// Errors naming the file when it cannot be read or decoded; [`DataError::Invalid`] when its size is not the camera's or no
     /// pixel is valid.
     pub fn load_mask(&self) -> Result<Option<image::GrayImage>, DataError> {
-        let Some(path) = self.mask_path() else {
-            return Ok(None);
-        };
-        let bytes = std::fs::read(&path).map_err(|e| DataError::io(&path, e))?;
-        mask_from_png(&path, &bytes, &self.meta.camera).map(Some)
+        read_dataset_mask(&self.root, &self.meta)
     }
 
     /// Loads sequence `name`: its poses, image list, sections and depth list.
@@ -864,8 +860,22 @@ impl Dataset {
             ));
         }
         let c = &self.meta.camera;
-        Sequence::open_sized(&self.root.join(name), Some((c.width, c.height)))
+        let mask = self.load_mask()?.map(Arc::new);
+        Sequence::open_in(&self.root.join(name), Some((c.width, c.height)), mask)
     }
+}
+
+/// The mask named by `meta`'s `[camera] mask` in the dataset folder `root`, when there is one.
+fn read_dataset_mask(
+    root: &Path,
+    meta: &DatasetMeta,
+) -> Result<Option<image::GrayImage>, DataError> {
+    let Some(name) = &meta.mask else {
+        return Ok(None);
+    };
+    let path = root.join(name);
+    let bytes = std::fs::read(&path).map_err(|e| DataError::io(&path, e))?;
+    mask_from_png(&path, &bytes, &meta.camera).map(Some)
 }
 
 /// One sequence of a dataset, loaded lazily: poses and labels in memory, images on demand.
@@ -886,6 +896,11 @@ pub struct Sequence {
     /// The camera's image size `(width, height)` from the dataset's `dataset.toml`, when the
     /// sequence sits in a dataset folder: every image loaded is checked against it.
     pub image_size: Option<(u32, u32)>,
+    /// The dataset's image mask (`[camera] mask`; non-zero = valid), when it has one: every
+    /// image loaded is black outside it, so that each stage — the zone network in training
+    /// and at test time, SURF, the viewer — sees a frame the same way, whatever a recorder
+    /// left in its border (noise, overlays, a time stamp).
+    pub mask: Option<Arc<image::GrayImage>>,
 }
 
 impl Sequence {
@@ -894,19 +909,26 @@ impl Sequence {
     /// # Errors
     /// See [`Dataset::sequence`].
     pub fn open(dir: &Path) -> Result<Self, DataError> {
-        // The dataset's camera, when the sequence sits in a dataset folder.
-        let image_size = match dir.parent().map(|p| p.join(META_FILE)) {
-            Some(p) if p.is_file() => {
-                let c = DatasetMeta::read(&p)?.camera;
-                Some((c.width, c.height))
+        // The dataset's camera and mask, when the sequence sits in a dataset folder.
+        let (image_size, mask) = match dir.parent() {
+            Some(root) if root.join(META_FILE).is_file() => {
+                let meta = DatasetMeta::read(&root.join(META_FILE))?;
+                let c = &meta.camera;
+                let mask = read_dataset_mask(root, &meta)?.map(Arc::new);
+                (Some((c.width, c.height)), mask)
             }
-            _ => None,
+            _ => (None, None),
         };
-        Self::open_sized(dir, image_size)
+        Self::open_in(dir, image_size, mask)
     }
 
-    /// [`Sequence::open`] with the camera's image size already known (`None`: unchecked).
-    fn open_sized(dir: &Path, image_size: Option<(u32, u32)>) -> Result<Self, DataError> {
+    /// [`Sequence::open`] with the camera's image size (`None`: unchecked) and the dataset's
+    /// mask already known.
+    fn open_in(
+        dir: &Path,
+        image_size: Option<(u32, u32)>,
+        mask: Option<Arc<image::GrayImage>>,
+    ) -> Result<Self, DataError> {
         let name = dir
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -961,7 +983,15 @@ impl Sequence {
             sections,
             depth_paths,
             image_size,
+            mask,
         })
+    }
+
+    /// This sequence with its images loaded as recorded, not blacked out beyond the mask
+    /// (e.g. to find the mask again).
+    pub fn unmasked(mut self) -> Self {
+        self.mask = None;
+        self
     }
 
     /// Number of frames.
@@ -993,7 +1023,11 @@ impl Sequence {
     /// [`DataError::Invalid`] for `i` out of range; [`DataError::Image`] for an image that
     /// cannot be decoded or whose size is not the camera's; [`DataError::Io`].
     pub fn load_gray(&self, i: usize) -> Result<image::GrayImage, DataError> {
-        Ok(self.load_image(i)?.into_luma8())
+        let mut img = self.load_image(i)?.into_luma8();
+        if let Some(mask) = &self.mask {
+            black_outside(&mut img, mask);
+        }
+        Ok(img)
     }
 
     /// Decodes image `i` and checks its size against the dataset's camera.
@@ -1020,7 +1054,11 @@ impl Sequence {
     /// # Errors
     /// [`DataError::Invalid`] for `i` out of range; [`DataError::Image`] / [`DataError::Io`].
     pub fn load_rgb(&self, i: usize) -> Result<image::RgbImage, DataError> {
-        Ok(self.load_image(i)?.into_rgb8())
+        let mut img = self.load_image(i)?.into_rgb8();
+        if let Some(mask) = &self.mask {
+            black_outside(&mut img, mask);
+        }
+        Ok(img)
     }
 
     /// Loads depth map `i`: `(width, height, depth_mm)` row-major, depth along the optical
@@ -1037,5 +1075,19 @@ impl Sequence {
             )
         })?;
         decode_depth_mm(self.frame_path(paths, i)?)
+    }
+}
+
+/// Sets every pixel of `img` where `mask` is 0 to black. `img` and `mask` have the camera's
+/// size (checked when the image is loaded and when the mask is read).
+pub fn black_outside<P: image::Pixel<Subpixel = u8>>(
+    img: &mut image::ImageBuffer<P, Vec<u8>>,
+    mask: &image::GrayImage,
+) {
+    let channels = usize::from(P::CHANNEL_COUNT);
+    for (px, &m) in img.chunks_exact_mut(channels).zip(mask.as_raw()) {
+        if m == 0 {
+            px.fill(0);
+        }
     }
 }

@@ -29,7 +29,7 @@ pub use centerline::{
 pub use check::{CheckReport, Problem, check_dataset};
 pub use dataset::{
     Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, MASK_FILE, Sequence, SequenceWriter,
-    mask_from_png, write_dataset_mask,
+    black_outside, mask_from_png, write_dataset_mask,
 };
 pub use error::{DataError, toml_error_line};
 pub use fingerprint::{Fingerprint, poses_fingerprint};

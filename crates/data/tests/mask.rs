@@ -117,3 +117,38 @@ fn check_reports_a_mask_of_the_wrong_size_or_a_path_outside_the_dataset() {
         "{e}"
     );
 }
+
+#[test]
+fn frames_load_black_outside_the_mask_wherever_the_sequence_is_opened_from() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    write(&dir, Some(&circle())).unwrap();
+    // What a recorder leaves in the border: a bright time stamp over the black.
+    let raw = GrayImage::from_fn(W, H, |x, y| {
+        image::Luma([if x < 6 { 250 } else { (x * 6 + y) as u8 }])
+    });
+    raw.save(dir.join("train/images/000000.png")).unwrap();
+    let mask = circle();
+    let expect = |img: &GrayImage| {
+        for (x, y, p) in img.enumerate_pixels() {
+            let want = if mask.get_pixel(x, y)[0] == 0 {
+                0
+            } else {
+                raw.get_pixel(x, y)[0]
+            };
+            assert_eq!(p[0], want, "pixel ({x}, {y})");
+        }
+    };
+    let from_dataset = Dataset::open(&dir).unwrap().sequence("train").unwrap();
+    expect(&from_dataset.load_gray(0).unwrap());
+    let from_folder = endoloc_data::Sequence::open(&dir.join("train")).unwrap();
+    expect(&from_folder.load_gray(0).unwrap());
+    let rgb = from_folder.load_rgb(0).unwrap();
+    for (x, y, p) in rgb.enumerate_pixels() {
+        if mask.get_pixel(x, y)[0] == 0 {
+            assert_eq!(p.0, [0, 0, 0], "pixel ({x}, {y})");
+        }
+    }
+    // As recorded, on request (finding the mask again).
+    assert_eq!(from_folder.unmasked().load_gray(0).unwrap(), raw);
+}

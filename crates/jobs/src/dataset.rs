@@ -117,7 +117,8 @@ impl DatasetJob {
         let seqs: Vec<_> = ds
             .sequences
             .iter()
-            .map(|name| ds.sequence(name))
+            // The frames as recorded: the mask in place would hide what is found again.
+            .map(|name| ds.sequence(name).map(endoloc_data::Sequence::unmasked))
             .collect::<std::result::Result<_, _>>()?;
         let total: usize = seqs.iter().map(|s| s.len()).sum();
         if total == 0 {

@@ -247,6 +247,9 @@ pub struct Localizer {
     matcher: Matcher,
     /// The live motion gate for this model's training pass.
     gate: Gate,
+    /// The image mask (non-zero = valid), when frames have one: the zone network sees frames
+    /// black outside it, as in training.
+    mask: Option<std::sync::Arc<image::GrayImage>>,
 }
 
 /// A frame's SURF features at [`LocalizerConfig::retry_threshold`], extracted beforehand.
@@ -325,6 +328,7 @@ impl Localizer {
         let gate = Gate::new(&cfg.motion, classifier.train_poses());
         Ok(Localizer {
             gate,
+            mask: None,
             classifier,
             map,
             cfg,
@@ -335,8 +339,11 @@ impl Localizer {
     }
 
     /// This localizer for frames with an image mask (black border, field stop): test-frame
-    /// SURF, and the retry's, detect and describe only inside it. `None`: the whole image.
+    /// SURF, and the retry's, detect and describe only inside it, and the zone network sees
+    /// each frame black outside it (as [`endoloc_data::Sequence`] loads the training frames).
+    /// `None`: the whole image.
     pub fn with_mask(mut self, mask: Option<std::sync::Arc<endoloc_features::Mask>>) -> Self {
+        self.mask = mask.as_ref().map(|m| std::sync::Arc::new(m.to_gray()));
         self.surf = self.surf.with_mask(mask.clone());
         self.retry_surf = self.retry_surf.map(|s| s.with_mask(mask));
         self
@@ -367,7 +374,14 @@ impl Localizer {
     /// # Errors
     /// Classifier errors (image of the wrong size…).
     pub fn classify(&self, img: &image::GrayImage) -> Result<ZonePrediction, LocalizeError> {
-        Ok(self.classifier.classify(img)?)
+        match &self.mask {
+            Some(mask) if img.dimensions() == mask.dimensions() => {
+                let mut masked = img.clone();
+                endoloc_data::black_outside(&mut masked, mask);
+                Ok(self.classifier.classify(&masked)?)
+            }
+            _ => Ok(self.classifier.classify(img)?),
+        }
     }
 
     /// Localizes a frame whose zone is already decided (`zone`, with its score), e.g. by

@@ -576,3 +576,41 @@ fn fixture_zone(f: &Fixture, pose: &Pose) -> usize {
         .map(|z| z.index)
         .unwrap()
 }
+
+#[test]
+fn the_zone_network_sees_a_masked_frame_as_training_did_whatever_its_border_holds() {
+    let f = fixture();
+    let cam = &f.ds.meta.camera;
+    // A field stop: valid within 0.45 of the width from the centre.
+    let radius = 0.45 * cam.width as f64;
+    let valid: Vec<bool> = (0..cam.height)
+        .flat_map(|y| (0..cam.width).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let (dx, dy) = (x as f64 - cam.cx, y as f64 - cam.cy);
+            dx * dx + dy * dy <= radius * radius
+        })
+        .collect();
+    let mask = endoloc_features::Mask::from_valid(cam.width as usize, cam.height as usize, &valid)
+        .unwrap();
+    let frame = f.ds.sequence("test").unwrap().load_gray(40).unwrap();
+    // The same frame as training saw it (black outside), and as a recorder delivers it (an
+    // overlay in the border).
+    let mut black = frame.clone();
+    let mut overlay = frame.clone();
+    for (i, ok) in valid.iter().enumerate() {
+        if !ok {
+            black.as_mut()[i] = 0;
+            overlay.as_mut()[i] = (i % 251) as u8;
+        }
+    }
+    let plain = localizer(f, LocalizerConfig::default());
+    let masked =
+        localizer(f, LocalizerConfig::default()).with_mask(Some(std::sync::Arc::new(mask)));
+    let d = |l: &Localizer, img| l.classify(img).unwrap().descriptor;
+    assert_ne!(
+        d(&plain, &overlay),
+        d(&plain, &black),
+        "the border changes the descriptor of an unmasked frame"
+    );
+    assert_eq!(d(&masked, &overlay), d(&masked, &black));
+}

@@ -968,6 +968,7 @@ mod tests {
             sections: None,
             depth_paths: None,
             image_size: None,
+            mask: None,
         };
         let err = ZoneTable::from_sequence(&seq, &ZoneConfig::Expert { count: 3 })
             .unwrap_err()
