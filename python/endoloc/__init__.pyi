@@ -222,6 +222,8 @@ def localize(
     max_keypoints: int = ...,
     candidate_zones: int = ...,
     max_sigma_mm: float = ...,
+    max_std_mm: float = ...,
+    weak_max_std_mm: float = ...,
     max_rms_px: float = ...,
     max_jump_mm: float = ...,
     strict: bool = ...,
@@ -264,6 +266,10 @@ def localize(
       paper's rule).
     - ``max_sigma_mm``: Validity: largest position uncertainty (1σ) of a refined pose,
       mm.
+    - ``max_std_mm``: Per frame: largest stated position uncertainty of a refined frame,
+      mm (default: no limit).
+    - ``weak_max_std_mm``: Per frame: the same for registrations with fewer than
+      ``trusted_inliers`` inliers.
     - ``max_rms_px``: Validity: largest RMS reprojection error of the inliers, pixels.
     - ``max_jump_mm``: Validity: largest jump from the prior, mm.
     - ``strict``: Stop at the first image that cannot be read instead of reporting the

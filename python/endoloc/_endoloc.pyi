@@ -142,7 +142,7 @@ class FrameResult:
     def reason(self) -> str | None:
         """Why not ``refined``: ``too_few_correspondences``, ``too_few_inliers``,
         ``rms_too_high``, ``jump_too_large``, ``degenerate_geometry``, ``inconsistent_with_motion``,
-        ``unconfirmed`` or ``unreadable_image``."""
+        ``unconfirmed``, ``uncertain`` or ``unreadable_image``."""
     @property
     def reason_detail(self) -> str | None: ...
     @property
@@ -152,7 +152,7 @@ class FrameResult:
     @property
     def source(self) -> str:
         """Where the pose comes from: ``refined``, ``predicted`` (live motion model),
-        ``zone_median`` or ``none``."""
+        ``registered`` (an ``uncertain`` frame's registration), ``zone_median`` or ``none``."""
         ...
     @property
     def std(self) -> tuple[float, float] | None:
@@ -199,6 +199,8 @@ class Localizer:
         max_keypoints: int = ...,
         candidate_zones: int = ...,
         max_sigma_mm: float = ...,
+        max_std_mm: float = ...,
+        weak_max_std_mm: float = ...,
         max_rms_px: float = ...,
         max_jump_mm: float = ...,
     ) -> None: ...

@@ -141,11 +141,23 @@ pub enum Reason {
         /// Inliers of the registration.
         inliers: usize,
     },
+    /// Per frame (no motion to check against): a registration whose stated position
+    /// uncertainty is above what a frame with its inlier count may have to be trusted; the
+    /// registered pose is still reported.
+    Uncertain {
+        /// Calibrated standard deviation of the camera centre, mm.
+        position_std_mm: f64,
+        /// The limit for a registration with this many inliers, mm.
+        max_mm: f64,
+        /// Inliers of the registration.
+        inliers: usize,
+    },
 }
 
 impl Reason {
     /// A stable keyword: `too_few_correspondences`, `too_few_inliers`, `rms_too_high`,
-    /// `jump_too_large`, `degenerate_geometry` or `unreadable_image`.
+    /// `jump_too_large`, `degenerate_geometry`, `unreadable_image`, `inconsistent_with_motion`,
+    /// `unconfirmed` or `uncertain`.
     pub fn code(&self) -> &'static str {
         match self {
             Reason::TooFewCorrespondences { .. } => "too_few_correspondences",
@@ -156,6 +168,7 @@ impl Reason {
             Reason::UnreadableImage { .. } => "unreadable_image",
             Reason::InconsistentMotion { .. } => "inconsistent_with_motion",
             Reason::Unconfirmed { .. } => "unconfirmed",
+            Reason::Uncertain { .. } => "uncertain",
         }
     }
 }
@@ -194,6 +207,14 @@ impl std::fmt::Display for Reason {
             Reason::Unconfirmed { inliers } => write!(
                 f,
                 "registration with only {inliers} inliers and no recent motion to check it against"
+            ),
+            Reason::Uncertain {
+                position_std_mm,
+                max_mm,
+                inliers,
+            } => write!(
+                f,
+                "registration with {inliers} inliers and a position uncertainty of {position_std_mm:.2} mm (at most {max_mm:.2} mm to be trusted)"
             ),
         }
     }

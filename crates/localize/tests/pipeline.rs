@@ -614,3 +614,67 @@ fn the_zone_network_sees_a_masked_frame_as_training_did_whatever_its_border_hold
     );
     assert_eq!(d(&masked, &overlay), d(&masked, &black));
 }
+
+#[test]
+fn per_frame_an_uncertain_registration_keeps_its_pose_but_is_not_refined() {
+    let f = fixture();
+    let test = f.ds.sequence("test").unwrap();
+    let off = localizer(f, LocalizerConfig::default());
+    let frames: Vec<usize> = (0..test.len()).step_by(7).collect();
+    let features: Vec<_> = frames
+        .iter()
+        .map(|&i| {
+            off.surf()
+                .detect_and_describe(&test.load_gray(i).unwrap())
+                .unwrap()
+        })
+        .collect();
+    let run = |loc: &Localizer| -> Vec<FrameResult> {
+        frames
+            .iter()
+            .zip(&features)
+            .map(|(&i, feats)| {
+                let z = loc.classifier().truth_zone(&test.poses[i].pose).unwrap();
+                loc.localize_features(feats, None, &predict(z), z, StageTimes::default())
+                    .unwrap()
+            })
+            .collect()
+    };
+    let free = run(&off);
+    let mut stds: Vec<f64> = free
+        .iter()
+        .filter(|r| r.status == Status::Refined)
+        .map(|r| r.position_std_mm)
+        .collect();
+    assert!(stds.len() >= 10, "only {} refined frames", stds.len());
+    stds.sort_by(f64::total_cmp);
+    let limit = stds[stds.len() / 2];
+    let on = localizer(
+        f,
+        LocalizerConfig {
+            max_std_mm: limit,
+            weak_max_std_mm: limit,
+            ..LocalizerConfig::default()
+        },
+    );
+    let limited = run(&on);
+    let mut demoted = 0;
+    for (a, b) in free.iter().zip(&limited) {
+        assert_eq!(a.t_wc, b.t_wc, "the pose is kept either way");
+        if a.status != Status::Refined {
+            assert_eq!(b.status, a.status);
+        } else if a.position_std_mm <= limit {
+            assert_eq!(b.status, Status::Refined);
+        } else {
+            assert_eq!(b.status, Status::InitOnly);
+            assert_eq!(b.source, PoseSource::Registered);
+            assert!(
+                matches!(b.reason, Some(Reason::Uncertain { max_mm, .. }) if max_mm == limit),
+                "{:?}",
+                b.reason
+            );
+            demoted += 1;
+        }
+    }
+    assert!(demoted > 0, "no frame above the median uncertainty");
+}

@@ -311,6 +311,8 @@ const LOCALIZER_OPTIONS: &[&str] = &[
     "max_keypoints",
     "candidate_zones",
     "max_sigma_mm",
+    "max_std_mm",
+    "weak_max_std_mm",
     "max_rms_px",
     "max_jump_mm",
 ];

@@ -152,6 +152,16 @@ pub struct LocalizeArgs {
     /// above it keep the zone's median pose as `init_only` (degenerate_geometry).
     #[arg(long, default_value_t = LocalizeJob::default().max_sigma_mm)]
     max_sigma_mm: f64,
+    /// Per frame: largest stated position uncertainty (the frames.csv standard deviation,
+    /// mm) of a refined frame; above it the frame is `init_only` (uncertain) and keeps its
+    /// registered pose (source `registered`). Default: no limit; 1.5 with
+    /// --weak-max-std-mm 0.75 suits 640×480 frames.
+    #[arg(long, default_value_t = LocalizeJob::default().max_std_mm)]
+    max_std_mm: f64,
+    /// Per frame: as --max-std-mm, for registrations with fewer than --trusted-inliers
+    /// inliers.
+    #[arg(long, default_value_t = LocalizeJob::default().weak_max_std_mm)]
+    weak_max_std_mm: f64,
     /// Validity: largest RMS reprojection error of the inliers, pixels.
     #[arg(long, default_value_t = LocalizeJob::default().max_rms_px)]
     max_rms_px: f64,
@@ -220,6 +230,8 @@ impl From<LocalizeArgs> for LocalizeJob {
             max_keypoints: a.max_keypoints,
             candidate_zones: a.candidate_zones,
             max_sigma_mm: a.max_sigma_mm,
+            max_std_mm: a.max_std_mm,
+            weak_max_std_mm: a.weak_max_std_mm,
             max_rms_px: a.max_rms_px,
             max_jump_mm: a.max_jump_mm,
             strict: a.strict,

@@ -107,6 +107,12 @@ pub struct LocalizeJob {
     pub candidate_zones: usize,
     /// Validity: largest position uncertainty (1σ) of a refined pose, mm.
     pub max_sigma_mm: f64,
+    /// Per frame: largest stated position uncertainty of a refined frame, mm
+    /// ([`LocalizerConfig::max_std_mm`]).
+    pub max_std_mm: f64,
+    /// Per frame: the same for registrations with fewer than `trusted_inliers` inliers
+    /// ([`LocalizerConfig::weak_max_std_mm`]).
+    pub weak_max_std_mm: f64,
     /// Validity: largest RMS reprojection error of the inliers, pixels.
     pub max_rms_px: f64,
     /// Validity: largest jump from the prior, mm.
@@ -142,6 +148,8 @@ impl Default for LocalizeJob {
             max_keypoints: 0,
             candidate_zones: cfg.candidate_zones,
             max_sigma_mm: validity.max_position_sigma_mm,
+            max_std_mm: cfg.max_std_mm,
+            weak_max_std_mm: cfg.weak_max_std_mm,
             max_rms_px: validity.max_rms_px,
             max_jump_mm: validity.max_jump_mm,
             strict: false,
@@ -192,6 +200,8 @@ impl LocalizeJob {
             surf,
             retry_threshold: self.retry_threshold,
             neighbour_zones: self.neighbours,
+            max_std_mm: self.max_std_mm,
+            weak_max_std_mm: self.weak_max_std_mm,
             candidate_zones: self.candidate_zones,
             track_frames: self.track_frames,
             recover_frames: self.recover_frames,
