@@ -18,7 +18,11 @@
 //!   number / fps.
 //!
 //! Neither kind documents its length unit, so [`EndoSlamConfig::units`] is required, and so
-//! is the camera (EndoSLAM's cameras differ per recording).
+//! is the camera (EndoSLAM's cameras differ per recording). EndoSLAM publishes its
+//! calibrations only as MATLAB Camera Calibration App sessions and `cameraParameters` objects
+//! (`Calibration/Camera/<camera>/*_cameraParams_pinhole.mat`, `*_fisheye.mat`): MATLAB class
+//! instances that no reader outside MATLAB decodes, so they are not read here; their
+//! `ImageSize`, `FocalLength` and `PrincipalPoint` give the camera.
 //!
 //! Columns are found by their header names (surrounding spaces and case ignored), so column
 //! order does not matter. Either kind may come as CSV or as an `.xlsx` sheet.

@@ -88,7 +88,9 @@ enum Format {
         /// Length unit of the pose file.
         #[arg(long, value_enum)]
         units: UnitsArg,
-        /// Camera: W,H,FX,FY,CX,CY.
+        /// Camera: W,H,FX,FY,CX,CY. EndoSLAM ships its calibrations only as MATLAB
+        /// cameraParameters objects (Calibration/Camera/*/*_cameraParams_pinhole.mat), which
+        /// only MATLAB decodes: read ImageSize, FocalLength and PrincipalPoint there.
         #[arg(long, value_name = "W,H,FX,FY,CX,CY")]
         camera: String,
         /// Pose file, .csv or .xlsx (default: the only .csv or .xlsx in SRC/Poses, else in SRC).
