@@ -180,12 +180,15 @@ class FrameResult:
 
 class Localizer:
     """A model, its map and ``endoloc localize``'s settings, for frames one at a time; live,
-    the causal filters and the last refined pose are kept between calls."""
+    the causal filters and the last refined pose are kept between calls. ``mask``: the frames'
+    image mask, a dataset folder (its ``[camera] mask``) or a mask PNG: SURF keeps inside it and
+    the zone network sees frames black outside it, as in training."""
 
     def __init__(
         self,
         model: Model | StrPath,
         live: bool = False,
+        mask: StrPath | None = None,
         *,
         also_model: _Seq[StrPath] = ...,
         track_frames: int = ...,

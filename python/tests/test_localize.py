@@ -132,3 +132,41 @@ def test_localizer_options_are_the_commands(tiny):
         endoloc.Localizer(tiny / "model", out="runs/x")
     with pytest.raises(ValueError, match="candidate_zones"):
         endoloc.Localizer(tiny / "model", candidate_zones="three")
+
+
+def write_gray_png(path, img):
+    """An 8-bit grey PNG, written with the standard library only."""
+    import struct
+    import zlib
+
+    h, w = img.shape
+    raw = b"".join(b"\x00" + img[y].astype(np.uint8).tobytes() for y in range(h))
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    header = struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+def test_a_masked_localizer_keeps_to_the_mask_and_says_which_file_does_not_fit(tiny, tmp_path):
+    seq = endoloc.Dataset(tiny / "data")["test"]
+    frame = seq[5]
+    h, w = frame.shape[:2]
+    yy, xx = np.mgrid[0:h, 0:w]
+    inside = (xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2 <= (0.45 * w) ** 2
+    path = tmp_path / "mask.png"
+    write_gray_png(path, np.where(inside, 255, 0))
+    masked = endoloc.Localizer(tiny / "model", mask=path)
+    r = masked.localize(frame)
+    # No inlier keypoint outside the mask.
+    for x, y in r.inlier_px:
+        assert inside[int(round(y)), int(round(x))]
+    # The border does not change what the zone network sees.
+    noisy = frame.copy()
+    noisy[~inside] = 200
+    assert masked.localize(noisy).zone == r.zone
+    small = tmp_path / "small.png"
+    write_gray_png(small, np.full((h // 2, w // 2), 255))
+    with pytest.raises(endoloc.EndolocError, match="small.png"):
+        endoloc.Localizer(tiny / "model", mask=small)

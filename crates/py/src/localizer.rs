@@ -320,15 +320,19 @@ const LOCALIZER_OPTIONS: &[&str] = &[
 #[pymethods]
 impl PyLocalizer {
     /// A localizer for `model` (a `Model` or its folder, with its map from `endoloc map`):
-    /// live or per frame, with `endoloc localize`'s options as keyword arguments.
+    /// live or per frame, with `endoloc localize`'s options as keyword arguments. `mask`: the
+    /// frames' image mask — a dataset folder (its `[camera] mask`) or a mask PNG; SURF keeps
+    /// inside it and the zone network sees frames black outside it, as in training.
     #[new]
-    #[pyo3(signature = (model, live=false, **options))]
+    #[pyo3(signature = (model, live=false, mask=None, **options))]
     fn new(
         py: Python<'_>,
         model: &Bound<'_, PyAny>,
         live: bool,
+        mask: Option<&Bound<'_, PyAny>>,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
+        let mask_path = mask.map(path_from_py).transpose()?;
         let dir = match model.cast::<PyModel>() {
             Ok(m) => m.get().classifier.dir().to_path_buf(),
             Err(_) => path_from_py(model)?,
@@ -339,7 +343,7 @@ impl PyLocalizer {
         };
         if let Some(bad) = t.keys().find(|k| !LOCALIZER_OPTIONS.contains(&k.as_str())) {
             return Err(PyTypeError::new_err(format!(
-                "Localizer() got an unexpected keyword argument {bad:?}; its options are: live, {}",
+                "Localizer() got an unexpected keyword argument {bad:?}; its options are: live, mask, {}",
                 LOCALIZER_OPTIONS.join(", ")
             )));
         }
@@ -355,7 +359,16 @@ impl PyLocalizer {
                 e.to_string().trim()
             ))
         })?;
-        let localizer = py.detach(|| job.localizer()).map_err(job_error)?;
+        let localizer = py
+            .detach(|| {
+                let localizer = job.localizer()?;
+                let mask = match &mask_path {
+                    Some(p) => endoloc_jobs::localize::read_mask(p, localizer.camera())?,
+                    None => None,
+                };
+                Ok(localizer.with_mask(mask))
+            })
+            .map_err(job_error)?;
         let live = live.then(|| Box::new(localizer.live_state()));
         Ok(PyLocalizer {
             localizer: Box::new(localizer),

@@ -511,6 +511,22 @@ pub fn dataset_mask(seq_dir: &Path) -> Result<Option<Arc<Mask>>> {
     mask_of(&dataset_of(seq_dir)?)
 }
 
+/// The image mask at `path`: a dataset folder (its `[camera] mask`, `None` when it has
+/// none) or a mask PNG (8-bit, `camera`'s size, non-zero = valid).
+///
+/// # Errors
+/// A dataset or file that cannot be read, or a mask of another size or without a valid
+/// pixel.
+pub fn read_mask(path: &Path, camera: &endoloc_geometry::Camera) -> Result<Option<Arc<Mask>>> {
+    if path.is_dir() {
+        return mask_of(&Dataset::open(path)?);
+    }
+    let bytes = std::fs::read(path).map_err(|e| JobError::io(path, e))?;
+    let img = endoloc_data::mask_from_png(path, &bytes, camera)?;
+    let mask = Mask::from_gray(&img).with_context(|| format!("mask {}", path.display()))?;
+    Ok(Some(Arc::new(mask)))
+}
+
 /// The image mask of `dataset`, when it has one.
 ///
 /// # Errors
