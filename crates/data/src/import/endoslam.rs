@@ -19,7 +19,7 @@
 //!
 //! Neither kind documents its length unit, so [`EndoSlamConfig::units`] is required, and so
 //! is the camera (EndoSLAM's cameras differ per recording). EndoSLAM publishes its
-//! calibrations only as MATLAB Camera Calibration App sessions and `cameraParameters` objects
+//! calibrations only as MATLAB Camera Calibration App files and `cameraParameters` objects
 //! (`Calibration/Camera/<camera>/*_cameraParams_pinhole.mat`, `*_fisheye.mat`): MATLAB class
 //! instances that no reader outside MATLAB decodes, so they are not read here; their
 //! `ImageSize`, `FocalLength` and `PrincipalPoint` give the camera.
