@@ -395,7 +395,15 @@ impl Localizer {
     /// Classifier errors (image of the wrong size…).
     pub fn classify(&self, img: &image::GrayImage) -> Result<ZonePrediction, LocalizeError> {
         match &self.mask {
-            Some(mask) if img.dimensions() == mask.dimensions() => {
+            // Frames loaded from a dataset are already black outside it: no copy for those.
+            Some(mask)
+                if img.dimensions() == mask.dimensions()
+                    && img
+                        .as_raw()
+                        .iter()
+                        .zip(mask.as_raw())
+                        .any(|(&p, &m)| m == 0 && p != 0) =>
+            {
                 let mut masked = img.clone();
                 endoloc_data::black_outside(&mut masked, mask);
                 Ok(self.classifier.classify(&masked)?)

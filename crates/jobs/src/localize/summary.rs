@@ -84,7 +84,7 @@ impl Default for LatencyHistogram {
 }
 
 /// Counts per status and per-stage latency of a run, built frame by frame
-/// ([`RunSummary::add`]) or from results in memory ([`RunSummary::of`]).
+/// ([`RunSummary::add`]).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RunSummary {
     /// Frames.
@@ -100,15 +100,6 @@ pub struct RunSummary {
 }
 
 impl RunSummary {
-    /// The summary of `results`.
-    pub fn of(results: &[FrameResult]) -> Self {
-        let mut s = RunSummary::default();
-        for r in results {
-            s.add(r);
-        }
-        s
-    }
-
     /// Counts one more frame.
     pub fn add(&mut self, r: &FrameResult) {
         self.frames += 1;
