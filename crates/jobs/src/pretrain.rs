@@ -57,6 +57,8 @@ pub struct PretrainJob {
     pub size: Option<String>,
     /// Replace an existing `out/weights.safetensors`.
     pub force: bool,
+    /// Compute device of the trainings: `cpu`, `cuda`, `wgpu` (GPU builds only) or `auto`.
+    pub device: String,
 }
 
 impl Default for PretrainJob {
@@ -77,6 +79,7 @@ impl Default for PretrainJob {
             fps: None,
             size: None,
             force: false,
+            device: "cpu".into(),
         }
     }
 }
@@ -181,6 +184,7 @@ impl PretrainJob {
                         pairs: self.pairs.clone(),
                         near_fraction: self.near_fraction,
                         pair_frames: self.pair_frames.clone(),
+                        device: self.device.clone(),
                         ..TrainJob::default()
                     };
                     colon.trained = Some(train.run(progress)?);
@@ -229,6 +233,7 @@ impl PretrainJob {
             .collect::<Result<Vec<_>>>()?;
         let mut cfg = TrainConfig {
             pretrained: self.pretrained.as_ref().map(PathBuf::from),
+            device: self.device.clone(),
             ..TrainConfig::default()
         };
         cfg.pairs = pair_rule_from(

@@ -5,7 +5,8 @@
 //! (`--device cuda`, or `BURN_DEVICE=cuda`). Tests never need one.
 
 use crate::NetError;
-use burn::tensor::Device;
+use burn::module::{Module, ModuleVisitor, Param};
+use burn::tensor::{Bool, Device, Int, Tensor};
 
 /// The flex CPU device (multi-threaded with rayon, SIMD).
 pub fn cpu() -> Device {
@@ -26,6 +27,60 @@ pub fn seeded<T>(device: &Device, seed: u64, init: impl FnOnce() -> T) -> T {
         .unwrap_or_else(|poisoned| poisoned.into_inner());
     device.seed(seed);
     init()
+}
+
+/// Builds a module with fresh weights drawn from the CPU backend's generator seeded with
+/// `seed` ([`seeded`]), then moves it to `device`.
+///
+/// burn draws a parameter's initial values when it is first used, not when the module is
+/// built; every parameter is therefore drawn here, while the seed holds. Each GPU backend has
+/// its own random generator, so initialising on the device itself would give other weights
+/// for the same seed; drawing them on the CPU gives every device the same start and, for a
+/// network without dropout, the same trained model within float tolerance. A GPU's own
+/// generator is then seeded with `seed` as well.
+///
+/// # Errors
+/// Whatever `init` returns.
+pub fn seeded_init<M: Module, E>(
+    device: &Device,
+    seed: u64,
+    init: impl FnOnce(&Device) -> Result<M, E>,
+) -> Result<M, E> {
+    let host = if device.is_autodiff() {
+        cpu().autodiff()
+    } else {
+        cpu()
+    };
+    let module = seeded(&host, seed, || {
+        let module = init(&host)?;
+        module.visit(&mut Materialize);
+        Ok(module)
+    })?;
+    if *device == host {
+        return Ok(module);
+    }
+    // The device's own generator (dropout during training) starts from the seed too, so that
+    // one seed gives one run on a GPU as on the CPU.
+    device.seed(seed);
+    // A fork keeps trainable parameters leaves of the new device's graph.
+    Ok(module.fork(device))
+}
+
+/// Draws every lazily initialised parameter of a module.
+struct Materialize;
+
+impl ModuleVisitor for Materialize {
+    fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+        let _ = param.val();
+    }
+
+    fn visit_int<const D: usize>(&mut self, param: &Param<Tensor<D, Int>>) {
+        let _ = param.val();
+    }
+
+    fn visit_bool<const D: usize>(&mut self, param: &Param<Tensor<D, Bool>>) {
+        let _ = param.val();
+    }
 }
 
 /// Names of the devices this build can use, for help texts.

@@ -91,6 +91,9 @@ pub struct Args {
     /// Replace an existing OUT/weights.safetensors.
     #[arg(long)]
     force: bool,
+    /// Compute device: cpu, cuda, wgpu (GPU builds only) or auto (BURN_DEVICE, else cpu).
+    #[arg(long, default_value_t = PretrainJob::default().device)]
+    device: String,
 }
 
 impl From<Args> for PretrainJob {
@@ -111,6 +114,7 @@ impl From<Args> for PretrainJob {
             fps: a.fps,
             size: a.size,
             force: a.force,
+            device: a.device,
         }
     }
 }

@@ -275,7 +275,7 @@ pub fn train_offsetnet(
         .map(|(i, d)| offset_between(&data.poses[i], &data.poses[partner(i, d)]))
         .collect();
     let nz = PoseNormalizer::fit(&offsets)?;
-    let net = crate::device::seeded(&device, cfg.seed, || OffsetNetNet::new(cfg, &device))?;
+    let net = crate::device::seeded_init(&device, cfg.seed, |d| OffsetNetNet::new(cfg, d))?;
     let size = data.images.size;
     let intrinsics = data.view_intrinsics();
     let batch_loss = |net: &OffsetNetNet, b: usize, rng: &mut ChaCha8Rng| {

@@ -191,7 +191,7 @@ pub fn train_posenet(
     let (train_frames, held) = split_holdout(data.len(), cfg.holdout_every);
     let train_poses: Vec<Pose> = train_frames.iter().map(|&f| data.poses[f]).collect();
     let nz = PoseNormalizer::fit(&train_poses)?;
-    let net = crate::device::seeded(&device, cfg.seed, || PoseNetNet::new(cfg, &device))?;
+    let net = crate::device::seeded_init(&device, cfg.seed, |d| PoseNetNet::new(cfg, d))?;
     let size = data.images.size;
     let intrinsics = data.view_intrinsics();
     let batch_loss = |net: &PoseNetNet, b: usize, rng: &mut ChaCha8Rng| {

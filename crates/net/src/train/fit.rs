@@ -197,7 +197,9 @@ fn pair_sampler(
 /// # Errors
 /// [`NetError::Weights`] for unreadable start weights.
 fn init_learner(cfg: &TrainConfig, device: &Device) -> Result<Learner, NetError> {
-    let mut net = crate::device::seeded(device, cfg.seed, || cfg.backbone.init(device));
+    let mut net = crate::device::seeded_init(device, cfg.seed, |d| {
+        Ok::<_, NetError>(cfg.backbone.init(d))
+    })?;
     if let Some(p) = &cfg.pretrained {
         let r = crate::pretrained::load_pretrained(&mut net, p)?;
         tracing::info!(
