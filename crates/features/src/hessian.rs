@@ -135,9 +135,62 @@ impl LayerFilter {
 
 /// Determinant-of-Hessian map of one level on the octave's sample grid (0 where the filter
 /// does not fit).
+///
+/// The lowest and highest levels of an octave only serve as the neighbours of the levels
+/// between them, so they are left empty ([`Layer::sparse`]) and evaluated at the few samples
+/// the non-maximum suppression and the interpolation ask for: the same arithmetic, so the
+/// same values, for a third of the work.
 struct Layer {
     filter: LayerFilter,
+    /// One value per sample of the grid; empty for a sparse layer.
     det: Vec<f32>,
+    /// Samples where the filter fits, inclusive: `(x_lo, x_hi, y_lo, y_hi)` (`None`: nowhere).
+    valid: Option<(usize, usize, usize, usize)>,
+}
+
+impl Layer {
+    /// A layer evaluated on demand by [`Layer::at`].
+    fn sparse(ii: &IntegralImage, filter: LayerFilter, grid: Grid) -> Self {
+        let valid = valid_samples(ii, &filter, grid);
+        Layer {
+            filter,
+            det: Vec::new(),
+            valid,
+        }
+    }
+
+    /// The determinant at grid sample `i` (0 where the filter does not fit).
+    #[inline]
+    fn at(&self, ii: &IntegralImage, grid: Grid, i: usize) -> f32 {
+        if !self.det.is_empty() {
+            return self.det[i];
+        }
+        let (kx, ky) = (i % grid.nx, i / grid.nx);
+        match self.valid {
+            Some((x_lo, x_hi, y_lo, y_hi))
+                if (x_lo..=x_hi).contains(&kx) && (y_lo..=y_hi).contains(&ky) =>
+            {
+                let f = &self.filter;
+                let base =
+                    (ky * grid.step - f.reach_lo) * ii.stride() + kx * grid.step - f.reach_lo;
+                let (dxx, dyy, dxy) = f.responses(ii.data(), base);
+                (dxx * dyy - 0.81 * dxy * dxy) as f32
+            }
+            _ => 0.0,
+        }
+    }
+}
+
+/// Grid samples where `filter` fits in the image, clipped to the grid.
+fn valid_samples(
+    ii: &IntegralImage,
+    filter: &LayerFilter,
+    grid: Grid,
+) -> Option<(usize, usize, usize, usize)> {
+    let (x_lo, x_hi) = filter.valid_range(ii.width(), grid.step)?;
+    let (y_lo, y_hi) = filter.valid_range(ii.height(), grid.step)?;
+    let (x_hi, y_hi) = (x_hi.min(grid.nx - 1), y_hi.min(grid.ny - 1));
+    (x_lo <= x_hi && y_lo <= y_hi).then_some((x_lo, x_hi, y_lo, y_hi))
 }
 
 /// Sample grid of one octave.
@@ -150,17 +203,11 @@ struct Grid {
 
 fn compute_layer(ii: &IntegralImage, filter: LayerFilter, grid: Grid, parallel: bool) -> Layer {
     let mut det = vec![0.0f32; grid.nx * grid.ny];
-    let (w, h) = (ii.width(), ii.height());
-    let (Some((x_lo, x_hi)), Some((y_lo, y_hi))) = (
-        filter.valid_range(w, grid.step),
-        filter.valid_range(h, grid.step),
-    ) else {
-        return Layer { filter, det };
+    let valid = valid_samples(ii, &filter, grid);
+    let Some((x_lo, x_hi, y_lo, y_hi)) = valid else {
+        return Layer { filter, det, valid };
     };
-    let x_hi = x_hi.min(grid.nx - 1);
-    let y_hi = y_hi.min(grid.ny - 1);
     let stride = ii.stride();
-    let data = ii.data();
     let f = &filter;
     let row = |ky: usize, out: &mut [f32]| {
         if ky < y_lo || ky > y_hi {
@@ -168,7 +215,7 @@ fn compute_layer(ii: &IntegralImage, filter: LayerFilter, grid: Grid, parallel: 
         }
         let y_top = ky * grid.step - f.reach_lo;
         let row_base = y_top * stride + x_lo * grid.step - f.reach_lo;
-        det_row(f, data, row_base, grid.step, &mut out[x_lo..=x_hi]);
+        det_row(ii, f, row_base, grid.step, &mut out[x_lo..=x_hi]);
     };
     if parallel {
         det.par_chunks_mut(grid.nx)
@@ -179,17 +226,46 @@ fn compute_layer(ii: &IntegralImage, filter: LayerFilter, grid: Grid, parallel: 
             .enumerate()
             .for_each(|(ky, out)| row(ky, out));
     }
-    Layer { filter, det }
+    Layer { filter, det, valid }
+}
+
+/// An integral-image entry: `f64` sums, or wrapping `u32` sums of an 8-bit image.
+trait Sum: Copy {
+    /// `a − b − c + d`, the box sum of four corners, as an exact `f64`.
+    fn box_sum(a: Self, b: Self, c: Self, d: Self) -> f64;
+}
+
+impl Sum for f64 {
+    #[inline(always)]
+    fn box_sum(a: f64, b: f64, c: f64, d: f64) -> f64 {
+        a - b - c + d
+    }
+}
+
+impl Sum for u32 {
+    #[inline(always)]
+    fn box_sum(a: u32, b: u32, c: u32, d: u32) -> f64 {
+        // Exact: the true sum of a box fits in 31 bits, whatever the wrapped corners are.
+        f64::from(a.wrapping_sub(b).wrapping_sub(c).wrapping_add(d))
+    }
 }
 
 /// Determinants of one row of samples: `out[k]` for the filter whose top-left integral corner
-/// is `base + k·step`.
+/// is `base + k·step`, read from `ii`'s integer table when it has one.
 ///
-/// The same arithmetic in the same order as [`LayerFilter::responses`], sample by sample, so
-/// the result is bit for bit the same; written with the step as a constant so that the
+/// Box sums of integer intensities are exact in either table, and everything after them is
+/// the arithmetic of [`LayerFilter::responses`] in the same order, so the result is bit for
+/// bit that of the sample-by-sample loop. Written with the step as a constant so that the
 /// compiler vectorises it (the loads of unit-step rows are contiguous, those of steps 2–8
 /// interleaved), and compiled a second time for AVX2 where the CPU has it.
-fn det_row(f: &LayerFilter, d: &[f64], base: usize, step: usize, out: &mut [f32]) {
+fn det_row(ii: &IntegralImage, f: &LayerFilter, base: usize, step: usize, out: &mut [f32]) {
+    match ii.exact() {
+        Some(d) => det_row_dispatch(f, d, base, step, out),
+        None => det_row_dispatch(f, ii.data(), base, step, out),
+    }
+}
+
+fn det_row_dispatch<T: Sum>(f: &LayerFilter, d: &[T], base: usize, step: usize, out: &mut [f32]) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2, checked just above.
@@ -201,47 +277,54 @@ fn det_row(f: &LayerFilter, d: &[f64], base: usize, step: usize, out: &mut [f32]
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn det_row_avx2(f: &LayerFilter, d: &[f64], base: usize, step: usize, out: &mut [f32]) {
+fn det_row_avx2<T: Sum>(f: &LayerFilter, d: &[T], base: usize, step: usize, out: &mut [f32]) {
     det_row_any(f, d, base, step, out);
 }
 
 #[inline(always)]
-fn det_row_any(f: &LayerFilter, d: &[f64], base: usize, step: usize, out: &mut [f32]) {
+fn det_row_any<T: Sum>(f: &LayerFilter, d: &[T], base: usize, step: usize, out: &mut [f32]) {
     match step {
-        1 => det_row_fixed::<1>(f, d, base, out),
-        2 => det_row_fixed::<2>(f, d, base, out),
-        4 => det_row_fixed::<4>(f, d, base, out),
-        8 => det_row_fixed::<8>(f, d, base, out),
-        _ => {
-            for (k, o) in out.iter_mut().enumerate() {
-                let (dxx, dyy, dxy) = f.responses(d, base + k * step);
-                *o = (dxx * dyy - 0.81 * dxy * dxy) as f32;
-            }
-        }
+        1 => det_row_fixed::<T, 1>(f, d, base, step, out),
+        2 => det_row_fixed::<T, 2>(f, d, base, step, out),
+        4 => det_row_fixed::<T, 4>(f, d, base, step, out),
+        8 => det_row_fixed::<T, 8>(f, d, base, step, out),
+        _ => det_row_fixed::<T, 0>(f, d, base, step, out),
     }
 }
 
+/// [`det_row`] with the step `STEP` known at compile time (`0`: use `step`).
 #[inline(always)]
-fn det_row_fixed<const STEP: usize>(f: &LayerFilter, d: &[f64], base: usize, out: &mut [f32]) {
+fn det_row_fixed<T: Sum, const STEP: usize>(
+    f: &LayerFilter,
+    d: &[T],
+    base: usize,
+    step: usize,
+    out: &mut [f32],
+) {
+    let step = if STEP == 0 { step } else { STEP };
     let n = out.len();
     if n == 0 {
         return;
     }
     // One bounds check for the whole row.
-    let w = &d[base..=base + f.max_offset + (n - 1) * STEP];
+    let w = &d[base..=base + f.max_offset + (n - 1) * step];
     #[inline(always)]
-    fn bx(w: &[f64], c: &[usize], at: usize) -> f64 {
-        // SAFETY: every corner offset is ≤ `max_offset` and `at ≤ (n − 1)·STEP`, and `w` has
-        // `max_offset + (n − 1)·STEP + 1` elements.
+    fn bx<T: Sum>(w: &[T], c: &[usize], at: usize) -> f64 {
+        // SAFETY: every corner offset is ≤ `max_offset` and `at ≤ (n − 1)·step`, and `w` has
+        // `max_offset + (n − 1)·step + 1` elements.
         unsafe {
-            w.get_unchecked(c[0] + at) - w.get_unchecked(c[1] + at) - w.get_unchecked(c[2] + at)
-                + w.get_unchecked(c[3] + at)
+            T::box_sum(
+                *w.get_unchecked(c[0] + at),
+                *w.get_unchecked(c[1] + at),
+                *w.get_unchecked(c[2] + at),
+                *w.get_unchecked(c[3] + at),
+            )
         }
     }
     let (xx, yy, xy) = (&f.xx, &f.yy, &f.xy);
     let (inv_lobe, inv_quadrant) = (f.inv_lobe_area, f.inv_quadrant_area);
     for (k, o) in out.iter_mut().enumerate() {
-        let at = k * STEP;
+        let at = k * step;
         let dxx = (bx(w, &xx[0..4], at) - 3.0 * bx(w, &xx[4..8], at)) * inv_lobe;
         let dyy = (bx(w, &yy[0..4], at) - 3.0 * bx(w, &yy[4..8], at)) * inv_lobe;
         let dxy = (bx(w, &xy[0..4], at) + bx(w, &xy[4..8], at)
@@ -277,12 +360,12 @@ pub(crate) fn detect(ii: &IntegralImage, cfg: &SurfConfig) -> Vec<Keypoint> {
             break;
         }
         let make = |level: usize| {
-            compute_layer(
-                ii,
-                LayerFilter::new(filter_size(octave, level), ii.stride()),
-                grid,
-                cfg.parallel,
-            )
+            let filter = LayerFilter::new(filter_size(octave, level), ii.stride());
+            if level == 0 || level + 1 == cfg.scale_levels {
+                Layer::sparse(ii, filter, grid)
+            } else {
+                compute_layer(ii, filter, grid, cfg.parallel)
+            }
         };
         let layers: Vec<Layer> = if cfg.parallel {
             (0..cfg.scale_levels).into_par_iter().map(make).collect()
@@ -342,10 +425,10 @@ fn suppress(
                 i + nx,
                 i + nx + 1,
             ];
-            let is_max = nbhd.iter().all(|&j| below.det[j] < v)
-                && nbhd[..4].iter().all(|&j| mid.det[j] < v)
+            let is_max = nbhd[..4].iter().all(|&j| mid.det[j] < v)
                 && nbhd[5..].iter().all(|&j| mid.det[j] <= v)
-                && nbhd.iter().all(|&j| above.det[j] <= v);
+                && nbhd.iter().all(|&j| below.at(ii, grid, j) < v)
+                && nbhd.iter().all(|&j| above.at(ii, grid, j) <= v);
             if !is_max {
                 continue;
             }
@@ -374,9 +457,9 @@ fn interpolate(
     grid: Grid,
 ) -> Option<Keypoint> {
     let nx = grid.nx;
-    let (b, m, a) = (&below.det, &mid.det, &above.det);
-    let v = f64::from(m[i]);
-    let g = |d: &[f32], j: usize| f64::from(d[j]);
+    let (b, m, a) = (below, mid, above);
+    let v = f64::from(m.at(ii, grid, i));
+    let g = |layer: &Layer, j: usize| f64::from(layer.at(ii, grid, j));
     let dx = (g(m, i + 1) - g(m, i - 1)) / 2.0;
     let dy = (g(m, i + nx) - g(m, i - nx)) / 2.0;
     let ds = (g(a, i) - g(b, i)) / 2.0;
@@ -519,8 +602,12 @@ mod tests {
             let n = (w - f.size) / step;
             let base = (y - f.reach_lo) * ii.stride();
             let mut fast = vec![0.0f32; n];
-            det_row(&f, ii.data(), base, step, &mut fast);
+            det_row(&ii, &f, base, step, &mut fast);
+            let mut float = vec![0.0f32; n];
+            det_row_dispatch(&f, ii.data(), base, step, &mut float);
+            assert!(ii.exact().is_some());
             for (k, v) in fast.iter().enumerate() {
+                assert_eq!(v.to_bits(), float[k].to_bits(), "integer table, sample {k}");
                 let (dxx, dyy, dxy) = f.responses(ii.data(), base + k * step);
                 let want = (dxx * dyy - 0.81 * dxy * dxy) as f32;
                 assert_eq!(

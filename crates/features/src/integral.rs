@@ -9,13 +9,32 @@ pub struct IntegralImage {
     width: usize,
     height: usize,
     data: Vec<f64>,
+    /// The same table in wrapping 32-bit integers, for 8-bit images only: a box sum taken
+    /// with wrapping arithmetic is exact (a box of at most 2²³ pixels fits), and half the
+    /// bytes of `data` to read in the detector's filter loops.
+    exact: Option<Vec<u32>>,
 }
 
 impl IntegralImage {
     /// Builds the table from 8-bit pixels (row-major, `width × height`, length checked by the
     /// caller).
     pub(crate) fn from_u8(pixels: &[u8], width: usize, height: usize) -> Self {
-        Self::build(width, height, |i| f64::from(pixels[i]))
+        let mut ii = Self::build(width, height, |i| f64::from(pixels[i]));
+        let stride = width + 1;
+        let mut exact = vec![0u32; stride * (height + 1)];
+        for y in 0..height {
+            let mut row_sum = 0u32;
+            let (prev, cur) = exact.split_at_mut((y + 1) * stride);
+            let prev = &prev[y * stride..];
+            let cur = &mut cur[..stride];
+            let px = &pixels[y * width..(y + 1) * width];
+            for x in 0..width {
+                row_sum = row_sum.wrapping_add(u32::from(px[x]));
+                cur[x + 1] = prev[x + 1].wrapping_add(row_sum);
+            }
+        }
+        ii.exact = Some(exact);
+        ii
     }
 
     /// Builds the table from intensities on the 0..1 scale (multiplied by 255).
@@ -40,6 +59,7 @@ impl IntegralImage {
             width,
             height,
             data,
+            exact: None,
         }
     }
 
@@ -61,6 +81,12 @@ impl IntegralImage {
     /// The raw table, row-major with stride `width + 1`.
     pub(crate) fn data(&self) -> &[f64] {
         &self.data
+    }
+
+    /// The table in wrapping 32-bit integers (same layout as [`IntegralImage::data`]), for a
+    /// table built from 8-bit pixels.
+    pub(crate) fn exact(&self) -> Option<&[u32]> {
+        self.exact.as_deref()
     }
 
     /// Sum of the pixels in columns `x0..x1` and rows `y0..y1` (half-open); the rectangle is
@@ -172,6 +198,28 @@ mod tests {
                 round_i64(-1.4)
             ),
             (-1, 2, 3, -1)
+        );
+    }
+
+    #[test]
+    fn the_integer_table_gives_the_same_box_sums() {
+        let (w, h) = (41usize, 23usize);
+        let px: Vec<u8> = (0..w * h).map(|i| ((i * 97 + 5) % 256) as u8).collect();
+        let ii = IntegralImage::from_u8(&px, w, h);
+        let (d, e) = (ii.data(), ii.exact().unwrap());
+        let s = ii.stride();
+        for (x0, y0, x1, y1) in [(0, 0, 41, 23), (3, 2, 17, 20), (40, 22, 41, 23)] {
+            let int = e[y1 * s + x1]
+                .wrapping_sub(e[y0 * s + x1])
+                .wrapping_sub(e[y1 * s + x0])
+                .wrapping_add(e[y0 * s + x0]);
+            assert_eq!(f64::from(int), ii.box_sum_unchecked(x0, y0, x1, y1));
+        }
+        assert_eq!(d.len(), e.len());
+        assert!(
+            IntegralImage::from_f32_unit(&[0.5; 4], 2, 2)
+                .exact()
+                .is_none()
         );
     }
 
