@@ -56,6 +56,7 @@ enum Command {
     Demo(cmd::demo::Args),
     Run(cmd::run::Args),
     Experiment(cmd::experiment::Args),
+    Bench(cmd::bench::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -78,6 +79,7 @@ fn main() -> std::process::ExitCode {
         Command::Demo(args) => cmd::demo::run(args, ui),
         Command::Run(args) => cmd::run::run(args, ui),
         Command::Experiment(args) => cmd::experiment::run(args, ui),
+        Command::Bench(args) => cmd::bench::run(args, ui),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -147,6 +147,27 @@ fn every_method_and_experiment_writes_its_outputs() {
         "header + one row per test frame"
     );
     check_run_files(&st.root.join("run"), 40);
+    // The live replay benchmark localizes as `localize --live` does, with either SURF loop.
+    let bench = ok(&[
+        "bench",
+        "live",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+    ]);
+    assert!(bench.contains("40 frames replayed live"), "{bench}");
+    assert!(
+        bench.contains("frames with a different result: 0"),
+        "the reference SURF loop must find the same keypoints:\n{bench}"
+    );
+    let refined = frames.lines().filter(|l| l.contains(",refined,")).count();
+    let percent = format!("{:.1}%", 100.0 * refined as f64 / 40.0);
+    let current = bench.lines().find(|l| l.starts_with("current")).unwrap();
+    assert!(
+        current.ends_with(&percent),
+        "bench refines {current:?}, localize --live {percent}"
+    );
     // Per frame: frames are localized in parallel blocks and written in frame order.
     ok(&[
         "localize",

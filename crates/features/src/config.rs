@@ -67,6 +67,12 @@ pub struct SurfConfig {
     /// orientation and description; 0 = keep all. A cap bounds the time per frame on richly
     /// textured frames (description and matching grow with the count). Default 0.
     pub max_keypoints: usize,
+    /// Compute the filter responses sample by sample at every level, the detector's plain
+    /// reference loop, instead of in vectorised rows with the outer levels of each octave
+    /// evaluated on demand. The keypoints are the same bit for bit; it is there to measure
+    /// the speed-up (`endoloc bench live --compare`). Default false.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub reference_filters: bool,
 }
 
 impl Default for SurfConfig {
@@ -81,6 +87,7 @@ impl Default for SurfConfig {
             parallel: true,
             max_pixels: 1 << 24,
             max_keypoints: 0,
+            reference_filters: false,
         }
     }
 }

@@ -201,7 +201,13 @@ struct Grid {
     ny: usize,
 }
 
-fn compute_layer(ii: &IntegralImage, filter: LayerFilter, grid: Grid, parallel: bool) -> Layer {
+fn compute_layer(
+    ii: &IntegralImage,
+    filter: LayerFilter,
+    grid: Grid,
+    parallel: bool,
+    reference: bool,
+) -> Layer {
     let mut det = vec![0.0f32; grid.nx * grid.ny];
     let valid = valid_samples(ii, &filter, grid);
     let Some((x_lo, x_hi, y_lo, y_hi)) = valid else {
@@ -215,7 +221,15 @@ fn compute_layer(ii: &IntegralImage, filter: LayerFilter, grid: Grid, parallel: 
         }
         let y_top = ky * grid.step - f.reach_lo;
         let row_base = y_top * stride + x_lo * grid.step - f.reach_lo;
-        det_row(ii, f, row_base, grid.step, &mut out[x_lo..=x_hi]);
+        let out = &mut out[x_lo..=x_hi];
+        if reference {
+            for (k, o) in out.iter_mut().enumerate() {
+                let (dxx, dyy, dxy) = f.responses(ii.data(), row_base + k * grid.step);
+                *o = (dxx * dyy - 0.81 * dxy * dxy) as f32;
+            }
+        } else {
+            det_row(ii, f, row_base, grid.step, out);
+        }
     };
     if parallel {
         det.par_chunks_mut(grid.nx)
@@ -361,10 +375,10 @@ pub(crate) fn detect(ii: &IntegralImage, cfg: &SurfConfig) -> Vec<Keypoint> {
         }
         let make = |level: usize| {
             let filter = LayerFilter::new(filter_size(octave, level), ii.stride());
-            if level == 0 || level + 1 == cfg.scale_levels {
+            if !cfg.reference_filters && (level == 0 || level + 1 == cfg.scale_levels) {
                 Layer::sparse(ii, filter, grid)
             } else {
-                compute_layer(ii, filter, grid, cfg.parallel)
+                compute_layer(ii, filter, grid, cfg.parallel, cfg.reference_filters)
             }
         };
         let layers: Vec<Layer> = if cfg.parallel {
@@ -616,6 +630,24 @@ mod tests {
                     "size {size} step {step} sample {k}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn the_reference_loop_over_every_level_finds_the_same_features_bit_for_bit() {
+        let img = crate::texture::textured_image(320, 240, 3);
+        for (threshold, upright) in [(50.0, false), (200.0, true)] {
+            let cfg = SurfConfig::default()
+                .with_threshold(threshold)
+                .with_upright(upright);
+            let reference = SurfConfig {
+                reference_filters: true,
+                ..cfg.clone()
+            };
+            let fast = cfg.init().unwrap().detect_and_describe(&img).unwrap();
+            let slow = reference.init().unwrap().detect_and_describe(&img).unwrap();
+            assert!(fast.len() > 20, "{} features", fast.len());
+            assert_eq!(fast, slow, "threshold {threshold}, upright {upright}");
         }
     }
 

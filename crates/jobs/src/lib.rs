@@ -22,6 +22,7 @@ pub mod output;
 pub mod progress;
 
 pub mod baselines;
+pub mod bench;
 pub mod classify;
 pub mod dataset;
 pub mod eval;
@@ -37,6 +38,7 @@ pub mod simulate;
 pub mod train;
 pub mod view;
 
+pub use bench::{LiveBenchJob, LiveBenchReport};
 pub use classify::{ClassifyJob, ClassifyReport, ZoneAccuracy};
 pub use dataset::{DatasetAction, DatasetJob, DatasetReport};
 pub use endoloc_features::MaskDetectConfig;

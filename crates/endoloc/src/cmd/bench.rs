@@ -1,0 +1,62 @@
+//! `endoloc bench`: timing endoloc's stages on a dataset.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use endoloc_jobs::{LiveBenchJob, Progress};
+
+/// Time endoloc's stages on your own data.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    what: What,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum What {
+    Live(LiveArgs),
+}
+
+/// Replay a sequence as a live stream (frames in order, each decoded before its clock
+/// starts) through `localize --live` and print the median time per stage, the p95 per frame
+/// and the fraction refined. By default every frame is also localized with SURF's plain
+/// reference loop (filter responses sample by sample at every level), the two alternating
+/// which runs first, so the speed-up is a ratio measured in one run on one machine; both
+/// must give the same result on every frame. Nothing is written.
+///
+/// Examples:
+///
+///   endoloc bench live --model models/bj --seq data/paper/test
+///
+///   endoloc bench live --model models/bj --seq data/paper/test --frames 500 --no-compare
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+struct LiveArgs {
+    /// Model folder with its map (`endoloc train`, `endoloc map`).
+    #[arg(long)]
+    model: PathBuf,
+    /// Sequence folder to replay, e.g. data/paper/test.
+    #[arg(long)]
+    seq: PathBuf,
+    /// Replay only the first N frames.
+    #[arg(long, value_name = "N")]
+    frames: Option<usize>,
+    /// Time the current localizer alone (no reference run).
+    #[arg(long)]
+    no_compare: bool,
+}
+
+pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
+    match args.what {
+        What::Live(a) => {
+            let job = LiveBenchJob {
+                model: a.model,
+                seq: a.seq,
+                frames: a.frames,
+                compare: !a.no_compare,
+            };
+            crate::ui::print(&job.run(ui)?)?;
+        }
+    }
+    Ok(())
+}

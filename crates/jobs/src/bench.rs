@@ -1,0 +1,191 @@
+//! `LiveBenchJob`: a test pass replayed as a live stream, timed stage by stage.
+//!
+//! Frames are decoded before each frame's clock starts (a scope's frames arrive decoded) and
+//! fed one by one to [`Localizer::localize_live`]. With `compare`, every frame is also
+//! localized by a second localizer whose SURF detector runs its plain reference loop
+//! ([`endoloc_features::SurfConfig::reference_filters`]); the two alternate which goes first
+//! from frame to frame, so both see the same machine load, and the speed-up is a ratio
+//! measured in one run. Nothing is written.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use endoloc_data::Sequence;
+use endoloc_features::SurfConfig;
+use endoloc_localize::map_io::load_map;
+use endoloc_localize::{FrameResult, Localizer};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Context, Result};
+use crate::localize::{LocalizeJob, RunSummary, dataset_mask, load_classifier};
+use crate::progress::{Progress, bar};
+
+/// Replays a sequence as a live stream through the localizer and reports per-stage latency.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LiveBenchJob {
+    /// Model folder with its map.
+    pub model: PathBuf,
+    /// Sequence folder replayed in frame order (e.g. `data/paper/test`).
+    pub seq: PathBuf,
+    /// Replay only the first this many frames (`None`: all).
+    pub frames: Option<usize>,
+    /// Also run the reference SURF loop on every frame, alternating which runs first.
+    pub compare: bool,
+}
+
+impl Default for LiveBenchJob {
+    fn default() -> Self {
+        LiveBenchJob {
+            model: PathBuf::new(),
+            seq: PathBuf::new(),
+            frames: None,
+            compare: true,
+        }
+    }
+}
+
+/// What [`LiveBenchJob`] measured.
+#[derive(Debug, Clone)]
+pub struct LiveBenchReport {
+    /// The sequence replayed.
+    pub seq: PathBuf,
+    /// The localizer as `endoloc localize --live` runs it.
+    pub current: RunSummary,
+    /// The same with the reference SURF loop (with `compare`).
+    pub reference: Option<RunSummary>,
+    /// Frames where the two gave a different status or pose (with `compare`; 0 expected:
+    /// the reference loop finds the same keypoints).
+    pub differing_frames: Option<usize>,
+}
+
+fn same(a: &FrameResult, b: &FrameResult) -> bool {
+    a.status == b.status && a.t_wc == b.t_wc && a.zone == b.zone && a.inliers == b.inliers
+}
+
+impl LiveBenchJob {
+    /// Replays the sequence.
+    ///
+    /// # Errors
+    /// A model or map that cannot be loaded, a sequence that cannot be read, or a localizer
+    /// error on a frame.
+    pub fn run(&self, progress: &dyn Progress) -> Result<LiveBenchReport> {
+        let job = LocalizeJob {
+            model: Some(self.model.clone()),
+            seq: self.seq.clone(),
+            live: true,
+            ..LocalizeJob::default()
+        };
+        let mask = dataset_mask(&self.seq)?;
+        let current = job.localizer()?.with_mask(mask.clone());
+        let reference = if self.compare {
+            let classifier = load_classifier(&self.model, &[], "cpu")?;
+            let map = load_map(&self.model)?;
+            let mut cfg = job.localizer_config(&map.config.surf);
+            cfg.surf = Some(SurfConfig {
+                reference_filters: true,
+                ..cfg.test_surf(&map.config.surf)
+            });
+            Some(Localizer::new(classifier, map, cfg)?.with_mask(mask))
+        } else {
+            None
+        };
+        let seq =
+            Sequence::open(&self.seq).with_context(|| format!("opening {}", self.seq.display()))?;
+        let n = self.frames.map_or(seq.len(), |f| f.min(seq.len()));
+        let mut states = (
+            current.live_state(),
+            reference.as_ref().map(Localizer::live_state),
+        );
+        let mut summaries = (RunSummary::default(), RunSummary::default());
+        let mut differing = 0;
+        let bar = bar(progress, n as u64, "live replay");
+        for i in 0..n {
+            let img = seq.load_gray(i)?;
+            let mut run_current = || current.localize_live(&mut states.0, &img);
+            let (a, b) = match (&reference, &mut states.1) {
+                (Some(r), Some(state)) => {
+                    let mut run_reference = || r.localize_live(state, &img);
+                    let (a, b) = if i % 2 == 0 {
+                        let a = run_current()?;
+                        (a, run_reference()?)
+                    } else {
+                        let b = run_reference()?;
+                        (run_current()?, b)
+                    };
+                    (a, Some(b))
+                }
+                _ => (run_current()?, None),
+            };
+            summaries.0.add(&a);
+            if let Some(b) = b {
+                summaries.1.add(&b);
+                differing += usize::from(!same(&a, &b));
+            }
+            bar.inc(1);
+        }
+        drop(bar);
+        Ok(LiveBenchReport {
+            seq: self.seq.clone(),
+            current: summaries.0,
+            reference: self.compare.then_some(summaries.1),
+            differing_frames: self.compare.then_some(differing),
+        })
+    }
+}
+
+impl fmt::Display for LiveBenchReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{}: {} frames replayed live, decoding outside the clock",
+            self.seq.display(),
+            self.current.frames
+        )?;
+        writeln!(
+            f,
+            "{:<22} {:>13} {:>13} {:>13} {:>13} {:>15} {:>9}",
+            "ms per frame (median)",
+            "zone",
+            "SURF",
+            "matching",
+            "refinement",
+            "total (p95)",
+            "refined"
+        )?;
+        let row = |f: &mut fmt::Formatter<'_>, name: &str, s: &RunSummary| {
+            let m = s.median_stage_ms();
+            writeln!(
+                f,
+                "{name:<22} {:>13.2} {:>13.2} {:>13.2} {:>13.2} {:>7.2} ({:>5.1}) {:>8.1}%",
+                m[0],
+                m[1],
+                m[2],
+                m[3],
+                s.median_ms(),
+                s.total_ms.quantile(0.95),
+                100.0 * s.refined()
+            )
+        };
+        row(f, "current", &self.current)?;
+        if let Some(r) = &self.reference {
+            row(f, "reference SURF loop", r)?;
+            let ratio = |a: f64, b: f64| if a > 0.0 { b / a } else { f64::NAN };
+            let (c, rm) = (self.current.median_stage_ms(), r.median_stage_ms());
+            write!(
+                f,
+                "speed-up: SURF {:.2}x, frame {:.2}x (median), {:.2}x (p95)",
+                ratio(c[1], rm[1]),
+                ratio(self.current.median_ms(), r.median_ms()),
+                ratio(
+                    self.current.total_ms.quantile(0.95),
+                    r.total_ms.quantile(0.95)
+                )
+            )?;
+            if let Some(d) = self.differing_frames {
+                write!(f, "; frames with a different result: {d}")?;
+            }
+        }
+        Ok(())
+    }
+}
