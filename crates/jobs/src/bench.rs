@@ -145,27 +145,14 @@ impl fmt::Display for LiveBenchReport {
         writeln!(
             f,
             "{:<22} {:>13} {:>13} {:>13} {:>13} {:>15} {:>9}",
-            "ms per frame (median)",
-            "zone",
-            "SURF",
-            "matching",
-            "refinement",
-            "total (p95)",
-            "refined"
+            "ms: median (p95)", "zone", "SURF", "matching", "refinement", "frame", "refined"
         )?;
         let row = |f: &mut fmt::Formatter<'_>, name: &str, s: &RunSummary| {
-            let m = s.median_stage_ms();
-            writeln!(
-                f,
-                "{name:<22} {:>13.2} {:>13.2} {:>13.2} {:>13.2} {:>7.2} ({:>5.1}) {:>8.1}%",
-                m[0],
-                m[1],
-                m[2],
-                m[3],
-                s.median_ms(),
-                s.total_ms.quantile(0.95),
-                100.0 * s.refined()
-            )
+            write!(f, "{name:<22}")?;
+            for h in s.stage_ms.iter().chain([&s.total_ms]) {
+                write!(f, " {:>6.2} ({:>5.1})", h.quantile(0.5), h.quantile(0.95))?;
+            }
+            writeln!(f, " {:>8.1}%", 100.0 * s.refined())
         };
         row(f, "current", &self.current)?;
         if let Some(r) = &self.reference {
