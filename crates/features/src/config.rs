@@ -70,7 +70,7 @@ pub struct SurfConfig {
     /// Compute the filter responses sample by sample at every level, the detector's plain
     /// reference loop, instead of in vectorised rows with the outer levels of each octave
     /// evaluated on demand. The keypoints are the same bit for bit; it is there to measure
-    /// the speed-up (`endoloc bench live --compare`). Default false.
+    /// the speed-up (`endoloc bench live`). Default false.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub reference_filters: bool,
 }
