@@ -462,6 +462,7 @@ def pretrain(
     fps: float | None = ...,
     size: str | None = ...,
     force: bool = ...,
+    device: str = ...,
     progress: ProgressArg = None,
 ) -> Report:
     """Start weights for ``train(pretrained=...)`` (``endoloc pretrain``).
@@ -487,6 +488,8 @@ def pretrain(
       preset's).
     - ``size``: Image size `WIDTHxHEIGHT`, pixels (`None`: the preset's).
     - ``force``: Replace an existing `out/weights.safetensors`.
+    - ``device``: Compute device of the trainings: `cpu`, `cuda`, `wgpu` (GPU builds only)
+      or `auto`.
     """
     ...
 
