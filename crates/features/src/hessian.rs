@@ -121,6 +121,14 @@ impl LayerFilter {
         (dxx, dyy, dxy)
     }
 
+    /// The determinant `Dxx·Dyy − (0.9·Dxy)²` at the filter whose top-left integral corner
+    /// is `base`, sample by sample: the reference that [`det_row`] reproduces bit for bit.
+    #[inline(always)]
+    fn det(&self, d: &[f64], base: usize) -> f32 {
+        let (dxx, dyy, dxy) = self.responses(d, base);
+        (dxx * dyy - 0.81 * dxy * dxy) as f32
+    }
+
     /// Range of grid indices `k` (sample pixel `k·step`) where the filter fits in `extent`
     /// pixels; `None` when it never fits.
     fn valid_range(&self, extent: usize, step: usize) -> Option<(usize, usize)> {
@@ -173,8 +181,7 @@ impl Layer {
                 let f = &self.filter;
                 let base =
                     (ky * grid.step - f.reach_lo) * ii.stride() + kx * grid.step - f.reach_lo;
-                let (dxx, dyy, dxy) = f.responses(ii.data(), base);
-                (dxx * dyy - 0.81 * dxy * dxy) as f32
+                f.det(ii.data(), base)
             }
             _ => 0.0,
         }
@@ -224,8 +231,7 @@ fn compute_layer(
         let out = &mut out[x_lo..=x_hi];
         if reference {
             for (k, o) in out.iter_mut().enumerate() {
-                let (dxx, dyy, dxy) = f.responses(ii.data(), row_base + k * grid.step);
-                *o = (dxx * dyy - 0.81 * dxy * dxy) as f32;
+                *o = f.det(ii.data(), row_base + k * grid.step);
             }
         } else {
             det_row(ii, f, row_base, grid.step, out);
@@ -622,8 +628,7 @@ mod tests {
             assert!(ii.exact().is_some());
             for (k, v) in fast.iter().enumerate() {
                 assert_eq!(v.to_bits(), float[k].to_bits(), "integer table, sample {k}");
-                let (dxx, dyy, dxy) = f.responses(ii.data(), base + k * step);
-                let want = (dxx * dyy - 0.81 * dxy * dxy) as f32;
+                let want = f.det(ii.data(), base + k * step);
                 assert_eq!(
                     v.to_bits(),
                     want.to_bits(),

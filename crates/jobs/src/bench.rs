@@ -12,12 +12,11 @@ use std::path::PathBuf;
 
 use endoloc_data::Sequence;
 use endoloc_features::SurfConfig;
-use endoloc_localize::map_io::load_map;
 use endoloc_localize::{FrameResult, Localizer};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Context, Result};
-use crate::localize::{LocalizeJob, RunSummary, dataset_mask, load_classifier};
+use crate::localize::{LocalizeJob, RunSummary, dataset_mask};
 use crate::progress::{Progress, bar};
 
 /// Replays a sequence as a live stream through the localizer and reports per-stage latency.
@@ -79,14 +78,13 @@ impl LiveBenchJob {
         let mask = dataset_mask(&self.seq)?;
         let current = job.localizer()?.with_mask(mask.clone());
         let reference = if self.compare {
-            let classifier = load_classifier(&self.model, &[], "cpu")?;
-            let map = load_map(&self.model)?;
-            let mut cfg = job.localizer_config(&map.config.surf);
-            cfg.surf = Some(SurfConfig {
-                reference_filters: true,
-                ..cfg.test_surf(&map.config.surf)
-            });
-            Some(Localizer::new(classifier, map, cfg)?.with_mask(mask))
+            let localizer = job.localizer_with(|cfg, map_surf| {
+                cfg.surf = Some(SurfConfig {
+                    reference_filters: true,
+                    ..cfg.test_surf(map_surf)
+                });
+            })?;
+            Some(localizer.with_mask(mask))
         } else {
             None
         };

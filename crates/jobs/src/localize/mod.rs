@@ -229,13 +229,26 @@ impl LocalizeJob {
     /// No model folder, a model or map that cannot be loaded, or a map built for another
     /// model.
     pub fn localizer(&self) -> Result<Localizer> {
+        self.localizer_with(|_, _| {})
+    }
+
+    /// [`LocalizeJob::localizer`] with its settings changed by `adjust` (which also gets the
+    /// map's SURF settings) before it is built.
+    ///
+    /// # Errors
+    /// As [`LocalizeJob::localizer`].
+    pub fn localizer_with(
+        &self,
+        adjust: impl FnOnce(&mut LocalizerConfig, &endoloc_features::SurfConfig),
+    ) -> Result<Localizer> {
         let model = self
             .model
             .as_deref()
             .context("a model folder is required (--model)")?;
         let classifier = load_classifier(model, &self.also_model, "cpu")?;
         let map = load_map(model)?;
-        let cfg = self.localizer_config(&map.config.surf);
+        let mut cfg = self.localizer_config(&map.config.surf);
+        adjust(&mut cfg, &map.config.surf);
         Ok(Localizer::new(classifier, map, cfg)?)
     }
 
