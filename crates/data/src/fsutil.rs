@@ -87,6 +87,36 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DataError> {
     result
 }
 
+/// Writes `path` atomically as [`write_atomic`] does, with the content produced by `fill`
+/// through a buffered writer: for files too large to build in memory first.
+///
+/// # Errors
+/// [`DataError::Io`] naming `path` when writing fails; whatever `fill` returns (the
+/// temporary file is removed either way).
+pub fn write_atomic_with<E: From<DataError>>(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> Result<(), E>,
+) -> Result<(), E> {
+    let tmp = hidden_sibling(path, "tmp");
+    let result = (|| {
+        let f = File::create(&tmp).map_err(|e| DataError::io(path, e))?;
+        let mut w = std::io::BufWriter::with_capacity(1 << 16, f);
+        fill(&mut w)?;
+        let f = w
+            .into_inner()
+            .map_err(|e| DataError::io(path, e.into_error()))?;
+        f.sync_all().map_err(|e| DataError::io(path, e))?;
+        drop(f);
+        std::fs::rename(&tmp, path).map_err(|e| DataError::io(path, e))?;
+        sync_dir(&parent_dir(path));
+        Ok(())
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
 /// Flushes a folder's entries (new names, renames) to disk; best effort, as not every
 /// platform can open a folder for syncing.
 pub fn sync_dir(dir: &Path) {
@@ -102,6 +132,82 @@ pub fn sync_dir(dir: &Path) {
 pub(crate) fn read_text(path: &Path) -> Result<String, DataError> {
     let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
     text_from_bytes(path, bytes)
+}
+
+/// The lines of a text stream, read one at a time (memory independent of the file's length):
+/// yields `(line number, line)` with the number 1-based and the line break removed, and an
+/// error naming `path` and the line at the first byte that is not UTF-8 or a read failure.
+pub struct TextLines<R> {
+    reader: R,
+    path: PathBuf,
+    line: usize,
+    buf: Vec<u8>,
+    done: bool,
+}
+
+impl<R: std::io::BufRead> TextLines<R> {
+    /// Lines of `reader`; `path` names the source in errors.
+    pub fn new(path: &Path, reader: R) -> Self {
+        Self {
+            reader,
+            path: path.to_path_buf(),
+            line: 0,
+            buf: Vec::new(),
+            done: false,
+        }
+    }
+}
+
+impl TextLines<std::io::BufReader<File>> {
+    /// Lines of the file at `path`.
+    ///
+    /// # Errors
+    /// [`DataError::Io`] naming `path` when it cannot be opened.
+    pub fn open(path: &Path) -> Result<Self, DataError> {
+        let file = File::open(path).map_err(|e| DataError::io(path, e))?;
+        Ok(Self::new(path, std::io::BufReader::new(file)))
+    }
+}
+
+impl<R: std::io::BufRead> Iterator for TextLines<R> {
+    type Item = Result<(usize, String), DataError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        self.buf.clear();
+        match self.reader.read_until(b'\n', &mut self.buf) {
+            Ok(0) => {
+                self.done = true;
+                None
+            }
+            Ok(_) => {
+                self.line += 1;
+                if self.buf.last() == Some(&b'\n') {
+                    self.buf.pop();
+                    if self.buf.last() == Some(&b'\r') {
+                        self.buf.pop();
+                    }
+                }
+                match std::str::from_utf8(&self.buf) {
+                    Ok(s) => Some(Ok((self.line, s.to_string()))),
+                    Err(_) => {
+                        self.done = true;
+                        Some(Err(DataError::parse(
+                            &self.path,
+                            self.line,
+                            "invalid UTF-8; expected a text file",
+                        )))
+                    }
+                }
+            }
+            Err(e) => {
+                self.done = true;
+                Some(Err(DataError::io(&self.path, e)))
+            }
+        }
+    }
 }
 
 /// A text file's bytes as a `String`; `path` names the file in the error.

@@ -41,4 +41,6 @@ pub use png_io::{
     MAX_DEPTH_MM, decode_png, depth_code_from_mm, depth_mm_from_code, depth_mm_from_png,
 };
 pub use sections_csv::{parse_sections, read_sections, write_sections};
-pub use trajectory::{StampedPose, TUM_HEADER, format_tum_line, parse_tum, read_tum, write_tum};
+pub use trajectory::{
+    StampedPose, TUM_HEADER, TumReader, format_tum_line, parse_tum, read_tum, write_tum,
+};

@@ -66,28 +66,100 @@ pub(crate) fn parse_tum_line(line: &str) -> Result<StampedPose, String> {
 
 /// Parses TUM text; `Err((line, message))` at the first bad line (1-based).
 pub(crate) fn parse_tum_text(text: &str) -> Result<Vec<StampedPose>, (usize, String)> {
+    let mut order = TumOrder::default();
     let mut poses: Vec<StampedPose> = Vec::new();
     for (i, line) in text.lines().enumerate() {
-        let t = line.trim();
-        if t.is_empty() || t.starts_with('#') {
-            continue;
+        if let Some(pose) = order.line(line).map_err(|m| (i + 1, m))? {
+            poses.push(pose);
         }
-        let pose = parse_tum_line(t).map_err(|m| (i + 1, m))?;
-        if let Some(last) = poses.last()
-            && pose.timestamp_s <= last.timestamp_s
-        {
-            return Err((
-                i + 1,
-                format!(
-                    "time stamp {} is not after the previous pose's {}; expected strictly \
-                     increasing time stamps (one pose per frame, in time order)",
-                    pose.timestamp_s, last.timestamp_s
-                ),
-            ));
-        }
-        poses.push(pose);
     }
     Ok(poses)
+}
+
+/// The per-line rule of a TUM file: comments and blank lines skipped, every pose line
+/// parsed, time stamps strictly increasing.
+#[derive(Debug, Default)]
+struct TumOrder {
+    last_s: Option<f64>,
+}
+
+impl TumOrder {
+    fn line(&mut self, line: &str) -> Result<Option<StampedPose>, String> {
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            return Ok(None);
+        }
+        let pose = parse_tum_line(t)?;
+        if let Some(last) = self.last_s
+            && pose.timestamp_s <= last
+        {
+            return Err(format!(
+                "time stamp {} is not after the previous pose's {last}; expected strictly \
+                 increasing time stamps (one pose per frame, in time order)",
+                pose.timestamp_s
+            ));
+        }
+        self.last_s = Some(pose.timestamp_s);
+        Ok(Some(pose))
+    }
+}
+
+/// A TUM trajectory read one pose at a time, with the rules of [`read_tum`] and memory
+/// independent of the file's length: for passes too long to hold, or read several times.
+pub struct TumReader<R> {
+    lines: crate::fsutil::TextLines<R>,
+    path: std::path::PathBuf,
+    order: TumOrder,
+    failed: bool,
+}
+
+impl TumReader<std::io::BufReader<std::fs::File>> {
+    /// Opens the TUM file at `path`.
+    ///
+    /// # Errors
+    /// [`DataError::Io`] naming `path` when it cannot be opened.
+    pub fn open(path: &Path) -> Result<Self, DataError> {
+        Ok(Self::new(path, crate::fsutil::TextLines::open(path)?))
+    }
+}
+
+impl<R: std::io::BufRead> TumReader<R> {
+    /// Reads TUM lines from `lines`; `path` names the file in errors.
+    pub fn new(path: &Path, lines: crate::fsutil::TextLines<R>) -> Self {
+        Self {
+            lines,
+            path: path.to_path_buf(),
+            order: TumOrder::default(),
+            failed: false,
+        }
+    }
+}
+
+impl<R: std::io::BufRead> Iterator for TumReader<R> {
+    type Item = Result<StampedPose, DataError>;
+
+    /// The next pose; after the first error, `None`.
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.failed {
+            return None;
+        }
+        for item in self.lines.by_ref() {
+            let step = item.and_then(|(n, line)| {
+                self.order
+                    .line(&line)
+                    .map_err(|m| DataError::parse(&self.path, n, m))
+            });
+            match step {
+                Ok(Some(pose)) => return Some(Ok(pose)),
+                Ok(None) => {}
+                Err(e) => {
+                    self.failed = true;
+                    return Some(Err(e));
+                }
+            }
+        }
+        None
+    }
 }
 
 /// Reads a TUM trajectory file.
@@ -182,6 +254,29 @@ mod tests {
             e.contains("column 4 (tz)") && e.contains("not finite"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn the_streaming_reader_reads_what_read_tum_reads_and_names_the_same_line() {
+        let text = "# c\n0.1 1 2 3 0 0 0 1\n\n0.2 4 5 6 0 0 0 1\r\n0.15 1 2 3 0 0 0 1\n";
+        let p = Path::new("t.txt");
+        let read = |t: &str| -> Result<Vec<StampedPose>, DataError> {
+            TumReader::new(p, crate::fsutil::TextLines::new(p, t.as_bytes())).collect()
+        };
+        let whole = parse_tum(p, text).unwrap_err().to_string();
+        let streamed = read(text).unwrap_err().to_string();
+        assert_eq!(whole, streamed);
+        assert!(streamed.starts_with("t.txt:5:"), "{streamed}");
+        let ok = "0.1 1 2 3 0 0 0 1\n0.2 4 5 6 0 0 0 1";
+        assert_eq!(read(ok).unwrap(), parse_tum(p, ok).unwrap());
+        let e = read("0.1 1 2 3 0 0 0 1\n\u{0}\u{ff}")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("t.txt:2:"), "{e}");
+        let bad = [b'0', b' ', 0xff, b'\n'];
+        let e: Result<Vec<_>, _> =
+            TumReader::new(p, crate::fsutil::TextLines::new(p, &bad[..])).collect();
+        assert!(e.unwrap_err().to_string().contains("UTF-8"));
     }
 
     #[test]

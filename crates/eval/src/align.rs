@@ -63,6 +63,105 @@ impl Similarity3 {
     }
 }
 
+/// Umeyama's moments of corresponding positions (`x` estimate, `y` ground truth, mm),
+/// accumulated in two passes over the same pairs in the same order: [`UmeyamaSums::add_mean`]
+/// for every pair, then [`UmeyamaSums::add_centred`] for every pair. The result of
+/// [`UmeyamaSums::solve`] is then exactly that of [`umeyama`] on the whole lists.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct UmeyamaSums {
+    n: usize,
+    sum_x: Vector3<f64>,
+    sum_y: Vector3<f64>,
+    centred: usize,
+    sigma_x: f64,
+    cov: Matrix3<f64>,
+}
+
+impl UmeyamaSums {
+    pub(crate) fn new() -> Self {
+        Self {
+            n: 0,
+            sum_x: Vector3::zeros(),
+            sum_y: Vector3::zeros(),
+            centred: 0,
+            sigma_x: -0.0,
+            cov: Matrix3::zeros(),
+        }
+    }
+
+    /// First pass: one pair.
+    pub(crate) fn add_mean(&mut self, x: &Vector3<f64>, y: &Vector3<f64>) {
+        self.sum_x += x;
+        self.sum_y += y;
+        self.n += 1;
+    }
+
+    fn means(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let n = self.n as f64;
+        (self.sum_x / n, self.sum_y / n)
+    }
+
+    /// Second pass: one pair (the same ones, in the same order).
+    pub(crate) fn add_centred(&mut self, x: &Vector3<f64>, y: &Vector3<f64>) {
+        let (mean_x, mean_y) = self.means();
+        self.sigma_x += (x - mean_x).norm_squared();
+        self.cov += (y - mean_y) * (x - mean_x).transpose();
+        self.centred += 1;
+    }
+
+    /// The similarity taking `x` onto `y`; `with_scale` false gives a rigid SE(3) transform.
+    ///
+    /// # Errors
+    /// As [`umeyama`].
+    pub(crate) fn solve(&self, with_scale: bool) -> Result<Similarity3, EvalError> {
+        if self.n < 2 || self.centred != self.n {
+            return Err(EvalError::Alignment(format!(
+                "needs as many estimated as ground-truth positions, at least 2; got {}",
+                self.n
+            )));
+        }
+        let n = self.n as f64;
+        let (mean_x, mean_y) = self.means();
+        let sigma_x = self.sigma_x / n;
+        let cov = self.cov / n;
+        let svd = SVD::try_new(cov, true, true, f64::EPSILON, 1000)
+            .ok_or_else(|| EvalError::Alignment("SVD did not converge".into()))?;
+        let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+            return Err(EvalError::Alignment(
+                "SVD returned no singular vectors".into(),
+            ));
+        };
+        let d = svd.singular_values;
+        if d.iter().filter(|&&s| s > f64::EPSILON).count() < 2 {
+            return Err(EvalError::Alignment(
+                "degenerate covariance rank (the positions are all on one line or one spot)".into(),
+            ));
+        }
+        let mut w = Matrix3::identity();
+        if u.determinant() * v_t.determinant() < 0.0 {
+            w[(2, 2)] = -1.0;
+        }
+        let r = u * w * v_t;
+        let scale = if with_scale {
+            if sigma_x.is_nan() || sigma_x <= 0.0 {
+                return Err(EvalError::Alignment(
+                    "the estimated positions have zero spread; scale undefined".into(),
+                ));
+            }
+            (Matrix3::from_diagonal(&d) * w).trace() / sigma_x
+        } else {
+            1.0
+        };
+        let rotation = Rotation3::from_matrix_unchecked(r);
+        let translation_mm = mean_y - scale * (rotation * mean_x);
+        Ok(Similarity3 {
+            rotation,
+            translation_mm,
+            scale,
+        })
+    }
+}
+
 /// Umeyama's least-squares similarity taking the points `x` (estimate) onto `y` (ground
 /// truth), mm; `with_scale` false gives a rigid SE(3) transform.
 ///
@@ -82,50 +181,14 @@ pub fn umeyama(
             y.len()
         )));
     }
-    let n = x.len() as f64;
-    let mean_x = x.iter().sum::<Vector3<f64>>() / n;
-    let mean_y = y.iter().sum::<Vector3<f64>>() / n;
-    let sigma_x = x.iter().map(|p| (p - mean_x).norm_squared()).sum::<f64>() / n;
-    let mut cov = Matrix3::zeros();
+    let mut sums = UmeyamaSums::new();
     for (p, q) in x.iter().zip(y) {
-        cov += (q - mean_y) * (p - mean_x).transpose();
+        sums.add_mean(p, q);
     }
-    cov /= n;
-    let svd = SVD::try_new(cov, true, true, f64::EPSILON, 1000)
-        .ok_or_else(|| EvalError::Alignment("SVD did not converge".into()))?;
-    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
-        return Err(EvalError::Alignment(
-            "SVD returned no singular vectors".into(),
-        ));
-    };
-    let d = svd.singular_values;
-    if d.iter().filter(|&&s| s > f64::EPSILON).count() < 2 {
-        return Err(EvalError::Alignment(
-            "degenerate covariance rank (the positions are all on one line or one spot)".into(),
-        ));
+    for (p, q) in x.iter().zip(y) {
+        sums.add_centred(p, q);
     }
-    let mut w = Matrix3::identity();
-    if u.determinant() * v_t.determinant() < 0.0 {
-        w[(2, 2)] = -1.0;
-    }
-    let r = u * w * v_t;
-    let scale = if with_scale {
-        if sigma_x.is_nan() || sigma_x <= 0.0 {
-            return Err(EvalError::Alignment(
-                "the estimated positions have zero spread; scale undefined".into(),
-            ));
-        }
-        (Matrix3::from_diagonal(&d) * w).trace() / sigma_x
-    } else {
-        1.0
-    };
-    let rotation = Rotation3::from_matrix_unchecked(r);
-    let translation_mm = mean_y - scale * (rotation * mean_x);
-    Ok(Similarity3 {
-        rotation,
-        translation_mm,
-        scale,
-    })
+    sums.solve(with_scale)
 }
 
 /// Aligns `est` onto `gt` (already associated, same order) as evo does, returning the

@@ -7,9 +7,12 @@
 //! are not sorted, a linear search takes the first nearest one. The offset is added to the
 //! estimate's timestamps for the association only.
 
+use endoloc_data::StampedPose;
+use endoloc_geometry::Pose;
 use serde::{Deserialize, Serialize};
 
 use crate::EvalError;
+use crate::source::Rows;
 
 /// How timestamps are matched.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -128,14 +131,7 @@ pub fn associate(
     est_stamps_s: &[f64],
     config: &AssociationConfig,
 ) -> Result<Association, EvalError> {
-    let valid =
-        config.max_diff_s.is_finite() && config.max_diff_s >= 0.0 && config.offset_s.is_finite();
-    if !valid {
-        return Err(EvalError::Invalid(format!(
-            "association: max. time difference must be finite and ≥ 0 and the offset finite; got {} s and {} s",
-            config.max_diff_s, config.offset_s
-        )));
-    }
+    check_config(config)?;
     // evo: traj_1 = reference, traj_2 = estimate; start from the shorter one.
     let second_longer = est_stamps_s.len() > gt_stamps_s.len();
     let pairs: Vec<MatchedPair> = if second_longer {
@@ -180,6 +176,199 @@ pub fn associate(
         gt_poses: gt_stamps_s.len(),
         est_poses: est_stamps_s.len(),
     })
+}
+
+/// Count and first and last time stamps of a trajectory, seconds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct TrajectoryScan {
+    pub count: usize,
+    pub first_s: f64,
+    pub last_s: f64,
+}
+
+impl TrajectoryScan {
+    /// Reads `rows` once; `name` names the trajectory in the error when its time stamps do
+    /// not increase strictly.
+    pub(crate) fn read(rows: Rows<'_, StampedPose>, name: &str) -> Result<Self, EvalError> {
+        let mut scan = Self {
+            count: 0,
+            first_s: f64::NAN,
+            last_s: f64::NAN,
+        };
+        for p in rows {
+            let t = p?.timestamp_s;
+            if scan.count == 0 {
+                scan.first_s = t;
+            } else if t.is_nan() || t <= scan.last_s {
+                return Err(EvalError::Invalid(format!(
+                    "{name}: pose {} has time stamp {t} s, not after the previous pose's {} s; \
+                     expected strictly increasing time stamps",
+                    scan.count, scan.last_s
+                )));
+            }
+            scan.last_s = t;
+            scan.count += 1;
+        }
+        Ok(scan)
+    }
+}
+
+/// One associated pair with both poses (`T_wc`, mm).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct PosePair {
+    pub gt_index: usize,
+    pub est_index: usize,
+    pub gt: Pose,
+    pub est: Pose,
+}
+
+/// The nearest-time-stamp search of [`matching_time_indices`] over a sorted trajectory read
+/// once from front to back, for query time stamps that do not decrease.
+struct Nearest<'a> {
+    rows: Rows<'a, StampedPose>,
+    offset_s: f64,
+    first_s: f64,
+    last_s: f64,
+    next_index: usize,
+    prev: Option<(usize, Pose, f64)>,
+    cur: Option<(usize, Pose, f64)>,
+}
+
+impl Nearest<'_> {
+    fn pull(&mut self) -> Result<Option<(usize, Pose, f64)>, EvalError> {
+        let Some(p) = self.rows.next().transpose()? else {
+            return Ok(None);
+        };
+        let i = self.next_index;
+        self.next_index += 1;
+        Ok(Some((i, p.pose, p.timestamp_s + self.offset_s)))
+    }
+
+    fn find(&mut self, s1: f64, max_diff: f64) -> Result<Option<(usize, Pose)>, EvalError> {
+        if s1 < self.first_s - max_diff || s1 > self.last_s + max_diff {
+            return Ok(None);
+        }
+        if self.cur.is_none() {
+            self.cur = self.pull()?;
+        }
+        let Some(mut cur) = self.cur else {
+            return Ok(None);
+        };
+        // numpy.searchsorted(side="right"), clamped to the last pose.
+        while cur.2 <= s1 {
+            match self.pull()? {
+                Some(next) => {
+                    self.prev = Some(cur);
+                    cur = next;
+                }
+                None => break,
+            }
+        }
+        self.cur = Some(cur);
+        let diff_ub = cur.2 - s1;
+        let diff_lb = self.prev.map_or(f64::INFINITY, |p| s1 - p.2);
+        Ok(if diff_ub <= max_diff && diff_ub < diff_lb {
+            Some((cur.0, cur.1))
+        } else if diff_lb <= max_diff && diff_lb <= diff_ub {
+            self.prev.map(|p| (p.0, p.1))
+        } else {
+            None
+        })
+    }
+}
+
+/// The pairs of [`associate`], with their poses, read in one pass over both trajectories
+/// (which must be sorted by time), in evo's order.
+pub(crate) struct PairStream<'a> {
+    short: Rows<'a, StampedPose>,
+    short_index: usize,
+    long: Nearest<'a>,
+    /// The estimate is the longer trajectory (searched); the ground truth is walked.
+    est_longer: bool,
+    max_diff_s: f64,
+}
+
+impl<'a> PairStream<'a> {
+    /// Pairs of `gt` and `est` (fresh streams of the scanned trajectories).
+    pub(crate) fn new(
+        gt: Rows<'a, StampedPose>,
+        est: Rows<'a, StampedPose>,
+        gt_scan: &TrajectoryScan,
+        est_scan: &TrajectoryScan,
+        config: &AssociationConfig,
+    ) -> Self {
+        let est_longer = est_scan.count > gt_scan.count;
+        let (short, long, long_scan, offset_s) = if est_longer {
+            (gt, est, est_scan, config.offset_s)
+        } else {
+            (est, gt, gt_scan, -config.offset_s)
+        };
+        Self {
+            short,
+            short_index: 0,
+            long: Nearest {
+                rows: long,
+                offset_s,
+                first_s: long_scan.first_s + offset_s,
+                last_s: long_scan.last_s + offset_s,
+                next_index: 0,
+                prev: None,
+                cur: None,
+            },
+            est_longer,
+            max_diff_s: config.max_diff_s,
+        }
+    }
+
+    fn step(&mut self) -> Result<Option<PosePair>, EvalError> {
+        if self.long.first_s.is_nan() {
+            return Ok(None);
+        }
+        while let Some(a) = self.short.next().transpose()? {
+            let ia = self.short_index;
+            self.short_index += 1;
+            if let Some((ib, pose_b)) = self.long.find(a.timestamp_s, self.max_diff_s)? {
+                return Ok(Some(if self.est_longer {
+                    PosePair {
+                        gt_index: ia,
+                        est_index: ib,
+                        gt: a.pose,
+                        est: pose_b,
+                    }
+                } else {
+                    PosePair {
+                        gt_index: ib,
+                        est_index: ia,
+                        gt: pose_b,
+                        est: a.pose,
+                    }
+                }));
+            }
+        }
+        Ok(None)
+    }
+}
+
+impl Iterator for PairStream<'_> {
+    type Item = Result<PosePair, EvalError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        self.step().transpose()
+    }
+}
+
+/// Checks `config` as [`associate`] does.
+pub(crate) fn check_config(config: &AssociationConfig) -> Result<(), EvalError> {
+    let valid =
+        config.max_diff_s.is_finite() && config.max_diff_s >= 0.0 && config.offset_s.is_finite();
+    if valid {
+        Ok(())
+    } else {
+        Err(EvalError::Invalid(format!(
+            "association: max. time difference must be finite and ≥ 0 and the offset finite; got {} s and {} s",
+            config.max_diff_s, config.offset_s
+        )))
+    }
 }
 
 #[cfg(test)]
@@ -246,6 +435,57 @@ mod tests {
         let est = [0.1, 0.2];
         let a = associate(&gt, &est, &AssociationConfig::default()).unwrap();
         assert_eq!(pairs(&a), vec![(1, 0), (2, 1)]);
+    }
+
+    fn stamped(ts: &[f64]) -> Vec<StampedPose> {
+        ts.iter()
+            .map(|&t| StampedPose {
+                timestamp_s: t,
+                pose: Pose::translation(t, 0.0, 0.0),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_stream_pairs_as_the_whole_association_does() {
+        let cases: [(&[f64], &[f64], f64, f64); 6] = [
+            (&[0.0, 1.0, 2.0, 3.0], &[0.0, 1.0, 3.0], 0.01, 0.0),
+            (
+                &[0.0, 1.0, 2.0],
+                &[0.0, 0.004, 0.995, 1.005, 2.0, 5.0],
+                0.01,
+                0.0,
+            ),
+            (&[0.0, 1.0, 2.0, 3.0], &[0.5, 1.5, 2.5], 0.5, 0.0),
+            (&[0.0, 1.0, 2.0], &[0.1, 1.1, 2.1, 3.1], 0.02, -0.1),
+            (&[0.0, 0.1, 0.2, 0.3, 0.4], &[0.05, 0.25], 0.05, 0.0),
+            (&[10.0, 11.0], &[0.0, 1.0, 2.0], 0.01, 0.0),
+        ];
+        for (k, (g, e, max_diff_s, offset_s)) in cases.into_iter().enumerate() {
+            let config = AssociationConfig {
+                max_diff_s,
+                offset_s,
+            };
+            let whole = associate(g, e, &config)
+                .map(|a| pairs(&a))
+                .unwrap_or_default();
+            let (gs, es) = (stamped(g), stamped(e));
+            fn rows(v: &[StampedPose]) -> Rows<'_, StampedPose> {
+                Box::new(v.iter().copied().map(Ok))
+            }
+            let gscan = TrajectoryScan::read(rows(&gs), "gt").unwrap();
+            let escan = TrajectoryScan::read(rows(&es), "est").unwrap();
+            let streamed: Vec<(usize, usize)> =
+                PairStream::new(rows(&gs), rows(&es), &gscan, &escan, &config)
+                    .map(|p| {
+                        let p = p.unwrap();
+                        assert_eq!(p.gt, gs[p.gt_index].pose);
+                        assert_eq!(p.est, es[p.est_index].pose);
+                        (p.gt_index, p.est_index)
+                    })
+                    .collect();
+            assert_eq!(streamed, whole, "case {k}");
+        }
     }
 
     #[test]

@@ -165,6 +165,24 @@ fn parse_row(line: &str, v1: bool) -> Result<FrameRecord, String> {
     })
 }
 
+/// Reads the header line: `Ok(true)` for the eight-column layout, `Ok(false)` for the current.
+fn parse_header(header: Option<(usize, &str)>, path: &Path) -> Result<bool, EvalError> {
+    match header {
+        Some((_, h)) if h.trim() == FRAMES_CSV_HEADER => Ok(false),
+        Some((_, h)) if h.trim() == FRAMES_CSV_HEADER_V1 => Ok(true),
+        Some((line, h)) => Err(EvalError::parse(
+            path,
+            line,
+            format!("header {:?}; expected {FRAMES_CSV_HEADER:?}", h.trim()),
+        )),
+        None => Err(EvalError::parse(
+            path,
+            1,
+            format!("empty file; expected the header {FRAMES_CSV_HEADER:?}"),
+        )),
+    }
+}
+
 /// Parses `frames.csv` text; `path` is only used in error messages.
 ///
 /// # Errors
@@ -174,33 +192,17 @@ pub fn parse_frames_csv(text: &str, path: &Path) -> Result<Vec<FrameRecord>, Eva
     let mut lines = text
         .lines()
         .enumerate()
+        .map(|(i, l)| (i + 1, l))
         .filter(|(_, l)| !l.trim().is_empty());
-    let v1 = match lines.next() {
-        Some((_, h)) if h.trim() == FRAMES_CSV_HEADER => false,
-        Some((_, h)) if h.trim() == FRAMES_CSV_HEADER_V1 => true,
-        Some((i, h)) => {
-            return Err(EvalError::parse(
-                path,
-                i + 1,
-                format!("header {:?}; expected {FRAMES_CSV_HEADER:?}", h.trim()),
-            ));
-        }
-        None => {
-            return Err(EvalError::parse(
-                path,
-                1,
-                format!("empty file; expected the header {FRAMES_CSV_HEADER:?}"),
-            ));
-        }
-    };
+    let v1 = parse_header(lines.next(), path)?;
     let mut rows = Vec::new();
     let mut seen = std::collections::HashMap::new();
-    for (i, line) in lines {
-        let row = parse_row(line.trim(), v1).map_err(|m| EvalError::parse(path, i + 1, m))?;
-        if let Some(first) = seen.insert(row.frame, i + 1) {
+    for (line_no, line) in lines {
+        let row = parse_row(line.trim(), v1).map_err(|m| EvalError::parse(path, line_no, m))?;
+        if let Some(first) = seen.insert(row.frame, line_no) {
             return Err(EvalError::parse(
                 path,
-                i + 1,
+                line_no,
                 format!(
                     "frame {} already listed on line {first}; expected one row per frame",
                     row.frame
@@ -210,6 +212,93 @@ pub fn parse_frames_csv(text: &str, path: &Path) -> Result<Vec<FrameRecord>, Eva
         rows.push(row);
     }
     Ok(rows)
+}
+
+/// `frames.csv` read one row at a time, in memory independent of its length: the rows must
+/// be in frame order (as endoloc writes them), which also rules out a repeated frame.
+pub struct FramesCsvReader<R> {
+    lines: endoloc_data::fsutil::TextLines<R>,
+    path: std::path::PathBuf,
+    v1: Option<bool>,
+    last: Option<usize>,
+    failed: bool,
+}
+
+impl FramesCsvReader<std::io::BufReader<std::fs::File>> {
+    /// Opens `frames.csv` at `path`.
+    ///
+    /// # Errors
+    /// [`EvalError::Data`] naming `path` when it cannot be opened.
+    pub fn open(path: &Path) -> Result<Self, EvalError> {
+        Ok(Self::new(
+            path,
+            endoloc_data::fsutil::TextLines::open(path)?,
+        ))
+    }
+}
+
+impl<R: std::io::BufRead> FramesCsvReader<R> {
+    /// Rows from `lines`; `path` names the file in errors.
+    pub fn new(path: &Path, lines: endoloc_data::fsutil::TextLines<R>) -> Self {
+        Self {
+            lines,
+            path: path.to_path_buf(),
+            v1: None,
+            last: None,
+            failed: false,
+        }
+    }
+
+    fn step(&mut self, line_no: usize, line: &str) -> Result<Option<FrameRecord>, EvalError> {
+        if line.trim().is_empty() {
+            return Ok(None);
+        }
+        let Some(v1) = self.v1 else {
+            self.v1 = Some(parse_header(Some((line_no, line)), &self.path)?);
+            return Ok(None);
+        };
+        let row =
+            parse_row(line.trim(), v1).map_err(|m| EvalError::parse(&self.path, line_no, m))?;
+        if let Some(last) = self.last
+            && row.frame <= last
+        {
+            return Err(EvalError::parse(
+                &self.path,
+                line_no,
+                format!(
+                    "frame {} after frame {last}; expected one row per frame, in frame order",
+                    row.frame
+                ),
+            ));
+        }
+        self.last = Some(row.frame);
+        Ok(Some(row))
+    }
+}
+
+impl<R: std::io::BufRead> Iterator for FramesCsvReader<R> {
+    type Item = Result<FrameRecord, EvalError>;
+
+    /// The next row; after the first error, `None`.
+    fn next(&mut self) -> Option<Self::Item> {
+        while !self.failed {
+            let step = match self.lines.next() {
+                None if self.v1.is_none() => parse_header(None, &self.path).map(|_| None),
+                None => return None,
+                Some(Err(e)) => Err(e.into()),
+                Some(Ok((n, line))) => self.step(n, &line),
+            };
+            match step {
+                Ok(Some(row)) => return Some(Ok(row)),
+                Ok(None) => {}
+                Err(e) => {
+                    self.failed = true;
+                    return Some(Err(e));
+                }
+            }
+        }
+        None
+    }
 }
 
 /// Reads `frames.csv` (see the module docs for the format).

@@ -28,6 +28,9 @@ pub mod output;
 pub mod plots;
 pub mod report;
 pub mod rpe;
+mod select;
+pub mod source;
+mod spill;
 pub mod stats;
 pub mod write;
 pub mod zones_csv;
@@ -44,17 +47,18 @@ pub use experiment_plots::{
     plot_method_bars,
 };
 pub use frames_csv::{
-    BOUND95_PER_STD, FRAMES_CSV_HEADER, FRAMES_CSV_HEADER_V1, FrameRecord, format_frames_csv,
-    format_frames_csv_row, parse_frames_csv, read_frames_csv, write_frames_csv,
+    BOUND95_PER_STD, FRAMES_CSV_HEADER, FRAMES_CSV_HEADER_V1, FrameRecord, FramesCsvReader,
+    format_frames_csv, format_frames_csv_row, parse_frames_csv, read_frames_csv, write_frames_csv,
 };
 pub use html::{Block, HtmlReport};
 pub use metrics::{
-    EvalConfig, EvalInputs, Evaluation, FrameEvaluation, METRICS_FORMAT, Metrics, evaluate,
+    EvalConfig, Evaluation, FrameEvaluation, METRICS_FORMAT, Metrics, evaluate, evaluate_files,
 };
 pub use output::{OutputDir, refuse_existing, write_atomic};
-pub use plots::{PlotConfig, text_available};
+pub use plots::{Cdf, PLOT_FRAMES, PlotConfig, PlotData, TrackPoint, text_available};
 pub use report::{Sources, render_report};
 pub use rpe::{RpeConfig, RpeErrors, rpe_errors};
+pub use source::{EvalFiles, EvalInputs, EvalSource};
 pub use stats::Statistics;
-pub use write::{WriteOptions, Written, write_results};
-pub use zones_csv::{ZONES_CSV_HEADER, ZoneLabel, read_zones_csv};
+pub use write::{WriteOptions, Written, write_errors_csv, write_results};
+pub use zones_csv::{ZONES_CSV_HEADER, ZoneLabel, ZonesCsvReader, read_zones_csv};

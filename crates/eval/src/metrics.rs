@@ -13,21 +13,34 @@
 //! - `per_zone`: a table keyed by the true zone when known, else by the predicted zone.
 //!
 //! The frame index of a ground-truth pose is its line order in the file (docs/CONVENTIONS.md).
+//!
+//! **Memory does not grow with the pass.** The inputs are streams read several times
+//! ([`EvalSource`]): once to check and count them, twice more for the alignment's means and
+//! covariance when one is asked for, once to compute every pair's error. The errors go to
+//! fixed-size records (memory, or an unnamed temporary file for [`EvalFiles`]), from which
+//! the statistics are computed exactly in nine more passes ([`crate::select`]); the plots
+//! keep at most [`crate::plots::PLOT_FRAMES`] frames.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
+use std::path::PathBuf;
 
-use endoloc_data::StampedPose;
 use endoloc_geometry::{Pose, Status};
 use serde::{Deserialize, Serialize};
 
 use crate::EvalError;
-use crate::align::{AlignmentKind, Similarity3, align_trajectory};
-use crate::ape::{PoseRelation, ape_errors};
-use crate::association::{AssociationConfig, associate};
+use crate::align::{AlignmentKind, Similarity3, UmeyamaSums};
+use crate::ape::PoseRelation;
+use crate::association::{AssociationConfig, PairStream, PosePair, TrajectoryScan, check_config};
 use crate::frames_csv::FrameRecord;
-use crate::rpe::{RpeConfig, rpe_errors};
+use crate::plots::{PlotCollector, PlotData};
+use crate::rpe::{RpeConfig, relative_error_pose};
+use crate::select::{GroupSummary, Want, summarise};
+use crate::source::{EvalFiles, EvalSource, Rows};
+use crate::spill::{Fields, Record, Spill};
 use crate::stats::Statistics;
 use crate::zones_csv::ZoneLabel;
+
+pub use crate::source::EvalInputs;
 
 /// Identifies the layout of `metrics.json`.
 pub const METRICS_FORMAT: &str = "endoloc-metrics/1";
@@ -44,31 +57,16 @@ pub struct EvalConfig {
     pub rpe: RpeConfig,
 }
 
-/// What is evaluated: trajectories and the optional per-frame files.
-#[derive(Debug, Clone, Copy)]
-pub struct EvalInputs<'a> {
-    /// Ground truth of the test sequence (its `poses.txt`), one pose per frame.
-    pub gt: &'a [StampedPose],
-    /// Estimated poses (the run's `trajectory.txt`).
-    pub est: &'a [StampedPose],
-    /// The run's `frames.csv` rows, if any.
-    pub frames: Option<&'a [FrameRecord]>,
-    /// True zones of the test frames, if known.
-    pub gt_zones: Option<&'a [ZoneLabel]>,
-}
-
-/// The error of one test frame.
-#[derive(Debug, Clone, PartialEq)]
+/// The error of one test frame: a row of `errors.csv`.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FrameEvaluation {
     /// 0-based test frame index.
     pub frame: usize,
     /// Ground-truth timestamp, seconds.
     pub timestamp_s: f64,
-    /// Ground-truth pose `T_wc`, mm.
-    pub gt: Pose,
-    /// Estimated pose `T_wc` (after alignment, if any), mm; `None` if not localized.
-    pub est: Option<Pose>,
-    /// Position error, mm.
+    /// Whether an estimated pose is associated with the frame.
+    pub localized: bool,
+    /// Position error, mm (after alignment, if any).
     pub position_mm: Option<f64>,
     /// Orientation error, degrees.
     pub orientation_deg: Option<f64>,
@@ -78,6 +76,94 @@ pub struct FrameEvaluation {
     pub zone: Option<usize>,
     /// True zone.
     pub gt_zone: Option<usize>,
+}
+
+const NONE_U64: u64 = u64::MAX;
+
+fn status_code(s: Option<Status>) -> u8 {
+    match s {
+        None => 0,
+        Some(Status::Refined) => 1,
+        Some(Status::InitOnly) => 2,
+        Some(Status::Rejected) => 3,
+    }
+}
+
+fn status_of(code: u8) -> Option<Status> {
+    match code {
+        1 => Some(Status::Refined),
+        2 => Some(Status::InitOnly),
+        3 => Some(Status::Rejected),
+        _ => None,
+    }
+}
+
+fn opt_u64(v: Option<usize>) -> u64 {
+    v.map_or(NONE_U64, |x| x as u64)
+}
+
+fn u64_opt(v: u64) -> Option<usize> {
+    (v != NONE_U64).then_some(v as usize)
+}
+
+impl Record for FrameEvaluation {
+    const SIZE: usize = 8 + 8 + 1 + 8 + 8 + 1 + 8 + 8;
+    fn encode(&self, out: &mut Vec<u8>) {
+        out.extend((self.frame as u64).to_le_bytes());
+        out.extend(self.timestamp_s.to_le_bytes());
+        out.push(u8::from(self.localized));
+        out.extend(self.position_mm.unwrap_or(f64::NAN).to_le_bytes());
+        out.extend(self.orientation_deg.unwrap_or(f64::NAN).to_le_bytes());
+        out.push(status_code(self.status));
+        out.extend(opt_u64(self.zone).to_le_bytes());
+        out.extend(opt_u64(self.gt_zone).to_le_bytes());
+    }
+    fn decode(b: &[u8]) -> Self {
+        let mut f = Fields(b);
+        let frame = f.u64() as usize;
+        let timestamp_s = f.f64();
+        let localized = f.u8() == 1;
+        let (p, r) = (f.f64(), f.f64());
+        Self {
+            frame,
+            timestamp_s,
+            localized,
+            position_mm: localized.then_some(p),
+            orientation_deg: localized.then_some(r),
+            status: status_of(f.u8()),
+            zone: u64_opt(f.u64()),
+            gt_zone: u64_opt(f.u64()),
+        }
+    }
+}
+
+/// The errors of one associated pair (APE) or one RPE pair, with the status of its frame.
+#[derive(Debug, Clone, Copy)]
+struct PairError {
+    /// APE (0) or RPE (1).
+    kind: u8,
+    status: u8,
+    position: f64,
+    orientation: f64,
+}
+
+impl Record for PairError {
+    const SIZE: usize = 18;
+    fn encode(&self, out: &mut Vec<u8>) {
+        out.push(self.kind);
+        out.push(self.status);
+        out.extend(self.position.to_le_bytes());
+        out.extend(self.orientation.to_le_bytes());
+    }
+    fn decode(b: &[u8]) -> Self {
+        let mut f = Fields(b);
+        Self {
+            kind: f.u8(),
+            status: f.u8(),
+            position: f.f64(),
+            orientation: f.f64(),
+        }
+    }
 }
 
 /// Position and orientation error statistics of a group of frames.
@@ -214,208 +300,438 @@ pub struct Metrics {
     pub config: EvalConfig,
 }
 
-/// An evaluated run: the metrics and the per-frame errors behind them.
-#[derive(Debug, Clone, PartialEq)]
+/// An evaluated run: the metrics, the per-frame errors behind them and what the plots show.
 pub struct Evaluation {
     /// The summary written to `metrics.json`.
     pub metrics: Metrics,
-    /// One entry per ground-truth frame, in frame order.
-    pub frames: Vec<FrameEvaluation>,
+    /// What the plots draw (at most [`crate::plots::PLOT_FRAMES`] frames).
+    pub plots: PlotData,
+    /// One record per ground-truth frame, in frame order.
+    frames: Spill<FrameEvaluation>,
 }
 
-fn summary(pos: &[f64], rot: &[f64], what: &str) -> Result<ErrorSummary, EvalError> {
-    Ok(ErrorSummary {
-        position_mm: Statistics::from_errors(pos, &format!("{what} position"))?,
-        orientation_deg: Statistics::from_errors(rot, &format!("{what} orientation"))?,
-    })
+impl std::fmt::Debug for Evaluation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Evaluation")
+            .field("metrics", &self.metrics)
+            .field("frames", &self.frames.len())
+            .finish_non_exhaustive()
+    }
 }
 
-/// Evaluates a run.
+impl Evaluation {
+    /// Calls `f` with the error of every test frame, in frame order (read back from memory
+    /// or from the evaluation's temporary file).
+    ///
+    /// # Errors
+    /// [`EvalError::Io`] when the temporary file cannot be read; whatever `f` returns.
+    pub fn for_each_frame(
+        &self,
+        f: impl FnMut(FrameEvaluation) -> Result<(), EvalError>,
+    ) -> Result<(), EvalError> {
+        self.frames.for_each(f)
+    }
+
+    /// The error of every test frame, in frame order, in memory (for small passes and tests).
+    ///
+    /// # Errors
+    /// As [`Evaluation::for_each_frame`].
+    pub fn frames(&self) -> Result<Vec<FrameEvaluation>, EvalError> {
+        let mut v = Vec::with_capacity(self.frames.len());
+        self.for_each_frame(|f| {
+            v.push(f);
+            Ok(())
+        })?;
+        Ok(v)
+    }
+}
+
+/// Evaluates a run held in memory.
 ///
 /// # Errors
 /// [`EvalError::NoAssociation`] if no estimated pose matches a ground-truth timestamp;
 /// [`EvalError::Alignment`] if the requested alignment is degenerate;
 /// [`EvalError::Invalid`] if `frames.csv` or the zones name a frame the ground truth does not
-/// have, or the settings are invalid (e.g. RPE delta 0).
+/// have or are not in frame order, the time stamps do not increase, or the settings are
+/// invalid (e.g. RPE delta 0).
 pub fn evaluate(inputs: &EvalInputs<'_>, config: &EvalConfig) -> Result<Evaluation, EvalError> {
-    let n = inputs.gt.len();
+    evaluate_source(inputs, config)
+}
+
+/// Evaluates a run from its files, reading them line by line: memory does not grow with the
+/// length of the pass (per-frame records go to unnamed temporary files in
+/// [`EvalFiles::scratch_dir`]).
+///
+/// # Errors
+/// As [`evaluate`], and unreadable or malformed files (named, with the line).
+pub fn evaluate_files(files: &EvalFiles, config: &EvalConfig) -> Result<Evaluation, EvalError> {
+    evaluate_source(files, config)
+}
+
+/// Rows of an optional per-frame file joined to the frame loop: rows must come in increasing
+/// frame order; each is taken at its frame.
+struct Joined<'a, T> {
+    rows: Option<Rows<'a, T>>,
+    peeked: Option<T>,
+    last: Option<usize>,
+    taken: usize,
+    name: String,
+    frame_of: fn(&T) -> usize,
+}
+
+impl<'a, T> Joined<'a, T> {
+    fn new(
+        rows: Option<Result<Rows<'a, T>, EvalError>>,
+        name: String,
+        frame_of: fn(&T) -> usize,
+    ) -> Result<Self, EvalError> {
+        Ok(Self {
+            rows: rows.transpose()?,
+            peeked: None,
+            last: None,
+            taken: 0,
+            name,
+            frame_of,
+        })
+    }
+
+    fn present(&self) -> bool {
+        self.rows.is_some()
+    }
+
+    /// The frame of the next row, if any.
+    fn peek(&mut self) -> Result<Option<usize>, EvalError> {
+        if self.peeked.is_none()
+            && let Some(rows) = &mut self.rows
+            && let Some(row) = rows.next().transpose()?
+        {
+            let f = (self.frame_of)(&row);
+            if let Some(last) = self.last
+                && f <= last
+            {
+                return Err(EvalError::Invalid(format!(
+                    "{}: row {} names frame {f} after frame {last}; expected one row per frame, in frame order",
+                    self.name,
+                    self.taken + 1
+                )));
+            }
+            self.last = Some(f);
+            self.peeked = Some(row);
+        }
+        Ok(self.peeked.as_ref().map(self.frame_of))
+    }
+
+    /// The row of `frame`, if there is one.
+    fn take(&mut self, frame: usize) -> Result<Option<T>, EvalError> {
+        match self.peek()? {
+            Some(f) if f == frame => {
+                self.taken += 1;
+                Ok(self.peeked.take())
+            }
+            _ => Ok(None),
+        }
+    }
+
+    /// After the last of `n` frames: any row left names a frame the ground truth lacks.
+    fn finish(&mut self, n: usize, what: &str) -> Result<(), EvalError> {
+        match self.peek()? {
+            Some(f) => Err(EvalError::Invalid(format!(
+                "{} names frame {f} but the ground truth has {n} frames (0..{n}){what}",
+                self.name
+            ))),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Counters of one per-zone row.
+#[derive(Debug, Clone, Copy, Default)]
+struct ZoneCount {
+    frames: usize,
+    localized: usize,
+    predicted_here: usize,
+}
+
+fn aligned(sim: &Similarity3, kind: AlignmentKind, est: &Pose) -> Pose {
+    match kind {
+        AlignmentKind::None => *est,
+        AlignmentKind::Se3 | AlignmentKind::Sim3 => sim.transform_pose(est),
+    }
+}
+
+/// The alignment of the estimate onto the ground truth: two passes over the pairs.
+fn alignment(
+    src: &dyn EvalSource,
+    scans: &(TrajectoryScan, TrajectoryScan),
+    config: &EvalConfig,
+) -> Result<Similarity3, EvalError> {
+    let kind = config.alignment;
+    if kind == AlignmentKind::None {
+        return Ok(Similarity3::identity());
+    }
+    let pairs = || -> Result<PairStream<'_>, EvalError> {
+        Ok(PairStream::new(
+            src.gt()?,
+            src.est()?,
+            &scans.0,
+            &scans.1,
+            &config.association,
+        ))
+    };
+    let mut sums = UmeyamaSums::new();
+    for p in pairs()? {
+        let p = p?;
+        sums.add_mean(&p.est.translation.vector, &p.gt.translation.vector);
+    }
+    for p in pairs()? {
+        let p = p?;
+        sums.add_centred(&p.est.translation.vector, &p.gt.translation.vector);
+    }
+    sums.solve(kind == AlignmentKind::Sim3)
+}
+
+const STATUSES: [Status; 3] = [Status::Refined, Status::InitOnly, Status::Rejected];
+
+/// The streamed evaluation behind [`evaluate`] and [`evaluate_files`].
+fn evaluate_source(src: &dyn EvalSource, config: &EvalConfig) -> Result<Evaluation, EvalError> {
     if config.rpe.delta_frames == 0 {
         return Err(EvalError::Invalid(
             "RPE delta must be at least 1 frame".into(),
         ));
     }
-    let gt_stamps: Vec<f64> = inputs.gt.iter().map(|p| p.timestamp_s).collect();
-    let est_stamps: Vec<f64> = inputs.est.iter().map(|p| p.timestamp_s).collect();
-    let assoc = associate(&gt_stamps, &est_stamps, &config.association)?;
-    let gt_poses: Vec<Pose> = assoc
-        .pairs
-        .iter()
-        .map(|p| inputs.gt[p.gt_index].pose)
-        .collect();
-    let est_raw: Vec<Pose> = assoc
-        .pairs
-        .iter()
-        .map(|p| inputs.est[p.est_index].pose)
-        .collect();
-    let (sim, est_poses) = align_trajectory(&gt_poses, &est_raw, config.alignment)?;
-    let pos = ape_errors(&gt_poses, &est_poses, PoseRelation::TransPart)?;
-    let rot = ape_errors(&gt_poses, &est_poses, PoseRelation::AngleDeg)?;
+    check_config(&config.association)?;
+    let [gt_name, est_name, frames_name, zones_name] = src.names();
+    let scans = (
+        TrajectoryScan::read(src.gt()?, &gt_name)?,
+        TrajectoryScan::read(src.est()?, &est_name)?,
+    );
+    let n = scans.0.count;
+    let sim = alignment(src, &scans, config)?;
 
-    let rpe = if assoc.pairs.len() > config.rpe.delta_frames {
-        let t = rpe_errors(&gt_poses, &est_poses, &config.rpe, PoseRelation::TransPart)?;
-        let r = rpe_errors(&gt_poses, &est_poses, &config.rpe, PoseRelation::AngleDeg)?;
-        Some(RpeMetrics {
-            delta_frames: config.rpe.delta_frames,
-            all_pairs: config.rpe.all_pairs,
-            translation_mm: Statistics::from_errors(&t.errors, "RPE translation")?,
-            rotation_deg: Statistics::from_errors(&r.errors, "RPE rotation")?,
-        })
-    } else {
-        None
-    };
-
-    // Per-frame view: the first pair of each ground-truth frame.
-    let mut frames: Vec<FrameEvaluation> = inputs
-        .gt
-        .iter()
-        .enumerate()
-        .map(|(i, g)| FrameEvaluation {
-            frame: i,
-            timestamp_s: g.timestamp_s,
-            gt: g.pose,
-            est: None,
-            position_mm: None,
-            orientation_deg: None,
-            status: None,
-            zone: None,
-            gt_zone: None,
-        })
-        .collect();
-    let mut pair_frame = Vec::with_capacity(assoc.pairs.len());
-    let mut matched_est = vec![false; inputs.est.len()];
-    for (k, p) in assoc.pairs.iter().enumerate() {
-        pair_frame.push(p.gt_index);
-        matched_est[p.est_index] = true;
-        let f = &mut frames[p.gt_index];
-        if f.est.is_none() {
-            f.est = Some(est_poses[k]);
-            f.position_mm = Some(pos[k]);
-            f.orientation_deg = Some(rot[k]);
-        }
-    }
-    let localized = frames.iter().filter(|f| f.est.is_some()).count();
-
-    let mut status_counts = None;
-    let mut by_status = BTreeMap::new();
-    if let Some(rows) = inputs.frames {
-        let mut c = StatusCounts::default();
-        for r in rows {
-            let Some(f) = frames.get_mut(r.frame) else {
-                return Err(EvalError::Invalid(format!(
-                    "frames.csv names frame {} but the ground truth has {n} frames (0..{n}); are they from the same sequence?",
-                    r.frame
-                )));
-            };
-            f.status = Some(r.status);
-            f.zone = r.zone;
-            match r.status {
-                Status::Refined => c.refined += 1,
-                Status::InitOnly => c.init_only += 1,
-                Status::Rejected => c.rejected += 1,
-            }
-        }
-        c.without_row = frames.iter().filter(|f| f.status.is_none()).count();
-        status_counts = Some(c);
-        for status in [Status::Refined, Status::InitOnly, Status::Rejected] {
-            let (p, r): (Vec<f64>, Vec<f64>) = pair_frame
-                .iter()
-                .enumerate()
-                .filter(|(_, fi)| frames[**fi].status == Some(status))
-                .map(|(k, _)| (pos[k], rot[k]))
-                .unzip();
-            if !p.is_empty() {
-                by_status.insert(
-                    status.as_str().to_string(),
-                    summary(&p, &r, status.as_str())?,
-                );
-            }
-        }
-    }
-    if let Some(zones) = inputs.gt_zones {
-        for z in zones {
-            let Some(f) = frames.get_mut(z.frame) else {
-                return Err(EvalError::Invalid(format!(
-                    "the ground-truth zones name frame {} but the ground truth has {n} frames",
-                    z.frame
-                )));
-            };
-            f.gt_zone = Some(z.zone);
-        }
-    }
-
-    let (mut zone_accuracy, mut zone_within_one, mut zone_frames) = (None, None, None);
-    if inputs.gt_zones.is_some() && inputs.frames.is_some() {
-        let labelled: Vec<&FrameEvaluation> =
-            frames.iter().filter(|f| f.gt_zone.is_some()).collect();
-        if !labelled.is_empty() {
-            let m = labelled.len() as f64;
-            let exact = labelled
-                .iter()
-                .filter(|f| f.zone.is_some() && f.zone == f.gt_zone)
-                .count();
-            let near = labelled
-                .iter()
-                .filter(|f| match (f.zone, f.gt_zone) {
-                    (Some(a), Some(b)) => a.abs_diff(b) <= 1,
-                    _ => false,
-                })
-                .count();
-            zone_accuracy = Some(exact as f64 / m);
-            zone_within_one = Some(near as f64 / m);
-        }
-        zone_frames = Some(labelled.len());
-    }
-
-    let zone_source = if inputs.gt_zones.is_some() {
+    let scratch: Option<PathBuf> = src.scratch_dir();
+    let mut frame_spill = Spill::<FrameEvaluation>::new(scratch.as_deref())?;
+    let mut pair_spill = Spill::<PairError>::new(scratch.as_deref())?;
+    let mut rows = Joined::new(src.frames(), frames_name, |r: &FrameRecord| r.frame)?;
+    let mut zones = Joined::new(src.gt_zones(), zones_name, |z: &ZoneLabel| z.frame)?;
+    let zone_source = if zones.present() {
         Some(ZoneSource::GroundTruth)
-    } else if inputs.frames.is_some() {
+    } else if rows.present() {
         Some(ZoneSource::Predicted)
     } else {
         None
     };
-    let mut per_zone = Vec::new();
-    if let Some(src) = zone_source {
-        let mut groups: BTreeMap<usize, Vec<&FrameEvaluation>> = BTreeMap::new();
-        for f in &frames {
-            let key = match src {
-                ZoneSource::GroundTruth => f.gt_zone,
-                ZoneSource::Predicted => f.zone,
+    let mut plots = PlotCollector::new(n);
+
+    let mut gt_rows = src.gt()?;
+    let mut pairs = PairStream::new(
+        src.gt()?,
+        src.est()?,
+        &scans.0,
+        &scans.1,
+        &config.association,
+    );
+    let mut next_pair: Option<PosePair> = pairs.next().transpose()?;
+    let delta = config.rpe.delta_frames;
+    let mut recent: VecDeque<(Pose, Pose)> = VecDeque::with_capacity(delta + 1);
+    let (mut matched, mut rpe_pairs, mut distinct_est, mut localized) =
+        (0usize, 0usize, 0usize, 0usize);
+    let mut last_est: Option<usize> = None;
+    let mut counts = StatusCounts::default();
+    let (mut labelled, mut exact, mut near) = (0usize, 0usize, 0usize);
+    let mut per_zone: BTreeMap<usize, ZoneCount> = BTreeMap::new();
+
+    for i in 0..n {
+        let g = gt_rows.next().transpose()?.ok_or_else(|| {
+            EvalError::Invalid(format!(
+                "{gt_name}: changed while it was read (fewer poses)"
+            ))
+        })?;
+        let row = rows.take(i)?;
+        let gt_zone = zones.take(i)?.map(|z| z.zone);
+        let status = row.as_ref().map(|r| r.status);
+        let zone = row.as_ref().and_then(|r| r.zone);
+        match status {
+            Some(Status::Refined) => counts.refined += 1,
+            Some(Status::InitOnly) => counts.init_only += 1,
+            Some(Status::Rejected) => counts.rejected += 1,
+            None => counts.without_row += 1,
+        }
+        let mut first: Option<(Pose, f64, f64)> = None;
+        while let Some(p) = next_pair.filter(|p| p.gt_index == i) {
+            let est = aligned(&sim, config.alignment, &p.est);
+            let pos = PoseRelation::TransPart.error(&est, &p.gt);
+            let rot = PoseRelation::AngleDeg.error(&est, &p.gt);
+            pair_spill.push(&PairError {
+                kind: 0,
+                status: status_code(status),
+                position: pos,
+                orientation: rot,
+            })?;
+            if last_est != Some(p.est_index) {
+                distinct_est += 1;
+                last_est = Some(p.est_index);
+            }
+            // RPE over associated pairs (i, i + Δ): consecutive ones step by Δ.
+            if recent.len() == delta + 1 {
+                recent.pop_front();
+            }
+            recent.push_back((p.gt, est));
+            if matched >= delta && (config.rpe.all_pairs || matched % delta == 0) {
+                let (gi, ei) = recent[0];
+                let e = relative_error_pose(&gi, &p.gt, &ei, &est);
+                let identity = Pose::identity();
+                pair_spill.push(&PairError {
+                    kind: 1,
+                    status: 0,
+                    position: PoseRelation::TransPart.error(&e, &identity),
+                    orientation: PoseRelation::AngleDeg.error(&e, &identity),
+                })?;
+                rpe_pairs += 1;
+            }
+            matched += 1;
+            first.get_or_insert((est, pos, rot));
+            next_pair = pairs.next().transpose()?;
+        }
+        if first.is_some() {
+            localized += 1;
+        }
+        let frame = FrameEvaluation {
+            frame: i,
+            timestamp_s: g.timestamp_s,
+            localized: first.is_some(),
+            position_mm: first.map(|f| f.1),
+            orientation_deg: first.map(|f| f.2),
+            status,
+            zone,
+            gt_zone,
+        };
+        frame_spill.push(&frame)?;
+        plots.add(&frame, &g.pose, first.map(|f| f.0).as_ref());
+        if rows.present()
+            && let Some(t) = gt_zone
+        {
+            labelled += 1;
+            exact += usize::from(zone == Some(t));
+            near += usize::from(zone.is_some_and(|z| z.abs_diff(t) <= 1));
+        }
+        let key = match zone_source {
+            Some(ZoneSource::GroundTruth) => gt_zone,
+            Some(ZoneSource::Predicted) => zone,
+            None => None,
+        };
+        if let Some(z) = key {
+            let c = per_zone.entry(z).or_default();
+            c.frames += 1;
+            c.localized += usize::from(first.is_some());
+            c.predicted_here += usize::from(zone == Some(z));
+        }
+    }
+    if let Some(p) = next_pair {
+        return Err(EvalError::Invalid(format!(
+            "{gt_name}: changed while it was read (pose {} beyond its {n} poses)",
+            p.gt_index
+        )));
+    }
+    rows.finish(n, "; are they from the same sequence?")?;
+    zones.finish(n, "")?;
+    frame_spill.seal()?;
+    pair_spill.seal()?;
+    if matched == 0 {
+        return Err(EvalError::NoAssociation {
+            gt_poses: n,
+            est_poses: scans.1.count,
+            max_diff_s: config.association.max_diff_s,
+            offset_s: config.association.offset_s,
+        });
+    }
+
+    // Exact statistics, streamed back from the records: groups 0/1 all pairs, 2..8 per
+    // status, 8/9 RPE, then two per zone.
+    let zone_groups: BTreeMap<usize, usize> = per_zone
+        .keys()
+        .enumerate()
+        .map(|(k, &z)| (z, 10 + 2 * k))
+        .collect();
+    let mut wants = vec![Want::Full; 10];
+    wants.extend(std::iter::repeat_n(Want::MeanMedian, 2 * zone_groups.len()));
+    let summaries: Vec<GroupSummary> = summarise(&wants, &mut |emit| {
+        pair_spill.for_each(|p| {
+            let base = if p.kind == 1 {
+                8
+            } else {
+                emit(0, p.position);
+                emit(1, p.orientation);
+                match status_of(p.status) {
+                    Some(s) => 2 + 2 * STATUSES.iter().position(|&x| x == s).unwrap_or(0),
+                    None => return Ok(()),
+                }
             };
-            if let Some(z) = key {
-                groups.entry(z).or_default().push(f);
+            emit(base, p.position);
+            emit(base + 1, p.orientation);
+            Ok(())
+        })?;
+        frame_spill.for_each(|f| {
+            let key = match zone_source {
+                Some(ZoneSource::GroundTruth) => f.gt_zone,
+                Some(ZoneSource::Predicted) => f.zone,
+                None => None,
+            };
+            if let (Some(z), Some(p), Some(r)) = (key, f.position_mm, f.orientation_deg)
+                && let Some(&g) = zone_groups.get(&z)
+            {
+                emit(g, p);
+                emit(g + 1, r);
+            }
+            Ok(())
+        })
+    })?;
+    let plots = plots.finish(&frame_spill)?;
+
+    let mut by_status = BTreeMap::new();
+    if rows.present() {
+        for (k, s) in STATUSES.iter().enumerate() {
+            let (p, r) = (&summaries[2 + 2 * k], &summaries[3 + 2 * k]);
+            if p.count > 0 {
+                by_status.insert(
+                    s.as_str().to_string(),
+                    ErrorSummary {
+                        position_mm: p.statistics(&format!("{} position", s.as_str()))?,
+                        orientation_deg: r.statistics(&format!("{} orientation", s.as_str()))?,
+                    },
+                );
             }
         }
-        for (zone, fs) in groups {
-            let p: Vec<f64> = fs.iter().filter_map(|f| f.position_mm).collect();
-            let r: Vec<f64> = fs.iter().filter_map(|f| f.orientation_deg).collect();
-            let (pm, pmed) = crate::stats::mean_median(&p);
-            let (rm, rmed) = crate::stats::mean_median(&r);
-            let acc = (src == ZoneSource::GroundTruth && inputs.frames.is_some()).then(|| {
-                fs.iter().filter(|f| f.zone == Some(zone)).count() as f64 / fs.len() as f64
-            });
-            per_zone.push(ZoneRow {
+    }
+    let rpe = if rpe_pairs > 0 {
+        Some(RpeMetrics {
+            delta_frames: delta,
+            all_pairs: config.rpe.all_pairs,
+            translation_mm: summaries[8].statistics("RPE translation")?,
+            rotation_deg: summaries[9].statistics("RPE rotation")?,
+        })
+    } else {
+        None
+    };
+    let per_zone: Vec<ZoneRow> = per_zone
+        .iter()
+        .map(|(&zone, c)| {
+            let g = zone_groups[&zone];
+            let (pm, pmed) = summaries[g].mean_median();
+            let (rm, rmed) = summaries[g + 1].mean_median();
+            ZoneRow {
                 zone,
-                frames: fs.len(),
-                localized: p.len(),
+                frames: c.frames,
+                localized: c.localized,
                 position_mm_mean: pm,
                 position_mm_median: pmed,
                 orientation_deg_mean: rm,
                 orientation_deg_median: rmed,
-                zone_accuracy: acc,
-            });
-        }
-    }
-
+                zone_accuracy: (zone_source == Some(ZoneSource::GroundTruth) && rows.present())
+                    .then(|| c.predicted_here as f64 / c.frames as f64),
+            }
+        })
+        .collect();
+    let both = zones.present() && rows.present();
     let metrics = Metrics {
         format: METRICS_FORMAT.to_string(),
         frames: n,
@@ -425,27 +741,31 @@ pub fn evaluate(inputs: &EvalInputs<'_>, config: &EvalConfig) -> Result<Evaluati
         } else {
             0.0
         },
-        position_mm: Statistics::from_errors(&pos, "position")?,
-        orientation_deg: Statistics::from_errors(&rot, "orientation")?,
+        position_mm: summaries[0].statistics("position")?,
+        orientation_deg: summaries[1].statistics("orientation")?,
         rpe,
-        zone_accuracy,
-        zone_within_one,
-        zone_frames,
-        status_counts,
+        zone_accuracy: (both && labelled > 0).then(|| exact as f64 / labelled as f64),
+        zone_within_one: (both && labelled > 0).then(|| near as f64 / labelled as f64),
+        zone_frames: both.then_some(labelled),
+        status_counts: rows.present().then_some(counts),
         by_status,
         zone_source,
         per_zone,
         association: AssociationSummary {
             config: config.association,
-            gt_poses: inputs.gt.len(),
-            est_poses: inputs.est.len(),
-            matched: assoc.pairs.len(),
-            unmatched_est: matched_est.iter().filter(|m| !**m).count(),
+            gt_poses: n,
+            est_poses: scans.1.count,
+            matched,
+            unmatched_est: scans.1.count - distinct_est,
         },
         alignment: alignment_summary(config.alignment, &sim),
         config: *config,
     };
-    Ok(Evaluation { metrics, frames })
+    Ok(Evaluation {
+        metrics,
+        plots,
+        frames: frame_spill,
+    })
 }
 
 fn alignment_summary(kind: AlignmentKind, sim: &Similarity3) -> AlignmentSummary {

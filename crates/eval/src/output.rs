@@ -87,6 +87,26 @@ impl OutputDir {
     }
 }
 
+impl OutputDir {
+    /// Writes `name` atomically with the content `fill` produces through a buffered writer.
+    ///
+    /// # Errors
+    /// [`EvalError::Io`] naming the file; whatever `fill` returns.
+    pub fn write_with(
+        &self,
+        name: &str,
+        fill: impl FnOnce(&mut dyn std::io::Write) -> Result<(), EvalError>,
+    ) -> Result<(), EvalError> {
+        let path = self.path(name);
+        endoloc_data::fsutil::write_atomic_with(&path, fill).map_err(|e| match e {
+            EvalError::Data(endoloc_data::DataError::Io { path, source }) => {
+                EvalError::Io { path, source }
+            }
+            other => other,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -7,6 +7,10 @@
 //! - `errors_along.png`: position (mm) and orientation (°) error against the frame index.
 //! - `error_cdf.png`: cumulative distribution of both errors.
 //!
+//! A pass of more than [`PLOT_FRAMES`] frames is drawn from every k-th frame (trajectory),
+//! each run of k frames' smallest and largest error (errors along the pass) and a
+//! 4096-bin histogram (CDF), so that memory stays bounded; [`PlotData::stride`] is k.
+//!
 //! Text needs a system font, found through fontconfig (the workspace's plotters `ttf`
 //! feature). When none is usable (a bare container), the plots are drawn without any text
 //! rather than failing; [`text_available`] says which happened.
@@ -23,6 +27,195 @@ use plotters::prelude::*;
 use crate::EvalError;
 use crate::metrics::{Evaluation, FrameEvaluation};
 use crate::output::write_atomic;
+use crate::spill::Spill;
+
+/// Passes up to this many frames are plotted frame by frame; longer ones are thinned.
+pub const PLOT_FRAMES: usize = 20_000;
+
+/// Bins of the CDF histogram of a thinned pass.
+const CDF_BINS: usize = 4096;
+
+/// One frame on the trajectory plot: world X-Y positions, mm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackPoint {
+    /// Ground-truth position `(x, y)`.
+    pub gt: (f64, f64),
+    /// Estimated position (after alignment), if localized.
+    pub est: Option<(f64, f64)>,
+    /// Status from `frames.csv`.
+    pub status: Option<Status>,
+}
+
+/// A point of the errors-along plot: frame index, error, status.
+pub type AlongPoint = (usize, f64, Option<Status>);
+
+/// The distribution of one error over the frames.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Cdf {
+    /// Every error, ascending.
+    Sorted(Vec<f64>),
+    /// `counts[b]` errors in `[b·w, (b+1)·w)` with `w = max / bins` (the last bin holds `max`).
+    Histogram {
+        /// The largest error.
+        max: f64,
+        /// Errors per bin.
+        counts: Vec<u64>,
+    },
+}
+
+/// What the plots draw: bounded by [`PLOT_FRAMES`] whatever the pass length.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlotData {
+    /// Test frames in the pass.
+    pub frames: usize,
+    /// Every `stride`-th frame is drawn on the trajectory plot (1: every frame).
+    pub stride: usize,
+    /// The trajectory plot's frames.
+    pub track: Vec<TrackPoint>,
+    /// Position errors along the pass: every localized frame, or per run of `stride` frames
+    /// the smallest and largest.
+    pub along_position: Vec<AlongPoint>,
+    /// Orientation errors along the pass, likewise.
+    pub along_orientation: Vec<AlongPoint>,
+    /// Position error distribution over the localized frames.
+    pub cdf_position: Cdf,
+    /// Orientation error distribution.
+    pub cdf_orientation: Cdf,
+}
+
+/// The smallest and largest error of a run of frames.
+#[derive(Debug, Clone, Copy, Default)]
+struct Extremes {
+    lo: Option<AlongPoint>,
+    hi: Option<AlongPoint>,
+}
+
+impl Extremes {
+    fn add(&mut self, p: AlongPoint) {
+        if self.lo.is_none_or(|q| p.1 < q.1) {
+            self.lo = Some(p);
+        }
+        if self.hi.is_none_or(|q| p.1 > q.1) {
+            self.hi = Some(p);
+        }
+    }
+
+    fn flush(&mut self, out: &mut Vec<AlongPoint>) {
+        let (lo, hi) = (self.lo.take(), self.hi.take());
+        match (lo, hi) {
+            (Some(a), Some(b)) if a.0 == b.0 => out.push(a),
+            (Some(a), Some(b)) if a.0 < b.0 => out.extend([a, b]),
+            (Some(a), Some(b)) => out.extend([b, a]),
+            _ => {}
+        }
+    }
+}
+
+/// Collects [`PlotData`] frame by frame during an evaluation.
+pub(crate) struct PlotCollector {
+    data: PlotData,
+    runs: [Extremes; 2],
+    max: [f64; 2],
+    exact: [Vec<f64>; 2],
+}
+
+impl PlotCollector {
+    pub(crate) fn new(frames: usize) -> Self {
+        Self {
+            data: PlotData {
+                frames,
+                stride: frames.div_ceil(PLOT_FRAMES).max(1),
+                track: Vec::new(),
+                along_position: Vec::new(),
+                along_orientation: Vec::new(),
+                cdf_position: Cdf::Sorted(Vec::new()),
+                cdf_orientation: Cdf::Sorted(Vec::new()),
+            },
+            runs: [Extremes::default(); 2],
+            max: [0.0; 2],
+            exact: [Vec::new(), Vec::new()],
+        }
+    }
+
+    /// The next frame, with its ground-truth and (aligned) estimated pose.
+    pub(crate) fn add(
+        &mut self,
+        f: &FrameEvaluation,
+        gt: &endoloc_geometry::Pose,
+        est: Option<&endoloc_geometry::Pose>,
+    ) {
+        let k = self.data.stride;
+        let xy = |p: &endoloc_geometry::Pose| (p.translation.x, p.translation.y);
+        if f.frame.is_multiple_of(k) {
+            self.data.track.push(TrackPoint {
+                gt: xy(gt),
+                est: est.map(xy),
+                status: f.status,
+            });
+        }
+        if k > 1 && f.frame.is_multiple_of(k) {
+            let d = &mut self.data;
+            self.runs[0].flush(&mut d.along_position);
+            self.runs[1].flush(&mut d.along_orientation);
+        }
+        for (q, e) in [f.position_mm, f.orientation_deg].into_iter().enumerate() {
+            let Some(e) = e else { continue };
+            if e.is_finite() {
+                self.max[q] = self.max[q].max(e);
+            }
+            if k == 1 {
+                let along = [
+                    &mut self.data.along_position,
+                    &mut self.data.along_orientation,
+                ];
+                along[q].push((f.frame, e, f.status));
+                self.exact[q].push(e);
+            } else {
+                self.runs[q].add((f.frame, e, f.status));
+            }
+        }
+    }
+
+    /// The plot data; a thinned pass's histograms are read from `frames` (sealed).
+    pub(crate) fn finish(mut self, frames: &Spill<FrameEvaluation>) -> Result<PlotData, EvalError> {
+        let mut d = self.data;
+        self.runs[0].flush(&mut d.along_position);
+        self.runs[1].flush(&mut d.along_orientation);
+        if d.stride == 1 {
+            let [mut p, mut r] = self.exact;
+            p.sort_by(f64::total_cmp);
+            r.sort_by(f64::total_cmp);
+            d.cdf_position = Cdf::Sorted(p);
+            d.cdf_orientation = Cdf::Sorted(r);
+            return Ok(d);
+        }
+        let mut counts = [vec![0u64; CDF_BINS], vec![0u64; CDF_BINS]];
+        let max = self.max;
+        frames.for_each(|f| {
+            for (q, e) in [f.position_mm, f.orientation_deg].into_iter().enumerate() {
+                if let Some(e) = e.filter(|e| e.is_finite()) {
+                    let b = if max[q] > 0.0 {
+                        ((e / max[q] * CDF_BINS as f64) as usize).min(CDF_BINS - 1)
+                    } else {
+                        0
+                    };
+                    counts[q][b] += 1;
+                }
+            }
+            Ok(())
+        })?;
+        let [p, r] = counts;
+        d.cdf_position = Cdf::Histogram {
+            max: max[0],
+            counts: p,
+        };
+        d.cdf_orientation = Cdf::Histogram {
+            max: max[1],
+            counts: r,
+        };
+        Ok(d)
+    }
+}
 
 /// Settings of the plots.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -140,11 +333,10 @@ pub fn plot_trajectory_xy(
     path: &Path,
     config: &PlotConfig,
 ) -> Result<(), EvalError> {
-    let frames = &eval.frames;
+    let frames = &eval.plots.track;
     let pts = frames
         .iter()
-        .flat_map(|f| std::iter::once(f.gt).chain(f.est))
-        .map(|p| (p.translation.x, p.translation.y));
+        .flat_map(|f| std::iter::once(f.gt).chain(f.est));
     let (xs, ys): (Vec<f64>, Vec<f64>) = pts.unzip();
     let (x0, x1) = padded_range(&xs);
     let (y0, y1) = padded_range(&ys);
@@ -192,21 +384,13 @@ pub fn plot_trajectory_xy(
         chart
             .draw_series(frames.iter().filter_map(|f| {
                 f.est.map(|e| {
-                    PathElement::new(
-                        vec![
-                            (e.translation.x, e.translation.y),
-                            (f.gt.translation.x, f.gt.translation.y),
-                        ],
-                        RGBColor(200, 200, 200).stroke_width(1),
-                    )
+                    PathElement::new(vec![e, f.gt], RGBColor(200, 200, 200).stroke_width(1))
                 })
             }))
             .map_err(|e| e.to_string())?;
         let gt_line = chart
             .draw_series(LineSeries::new(
-                frames
-                    .iter()
-                    .map(|f| (f.gt.translation.x, f.gt.translation.y)),
+                frames.iter().map(|f| f.gt),
                 GT_COLOR.stroke_width(2),
             ))
             .map_err(|e| e.to_string())?;
@@ -218,13 +402,12 @@ pub fn plot_trajectory_xy(
         // Frames without an estimate: a cross on the ground truth.
         if frames.iter().any(|f| f.est.is_none()) {
             let lost = chart
-                .draw_series(frames.iter().filter(|f| f.est.is_none()).map(|f| {
-                    Cross::new(
-                        (f.gt.translation.x, f.gt.translation.y),
-                        4,
-                        REJECTED.stroke_width(2),
-                    )
-                }))
+                .draw_series(
+                    frames
+                        .iter()
+                        .filter(|f| f.est.is_none())
+                        .map(|f| Cross::new(f.gt, 4, REJECTED.stroke_width(2))),
+                )
                 .map_err(|e| e.to_string())?;
             if text {
                 lost.label("not localized (at ground truth)")
@@ -237,7 +420,7 @@ pub fn plot_trajectory_xy(
             (Some(Status::Rejected), "rejected (pose given)"),
             (None, "estimate"),
         ] {
-            let sel: Vec<&FrameEvaluation> = frames
+            let sel: Vec<&TrackPoint> = frames
                 .iter()
                 .filter(|f| f.est.is_some() && f.status == status)
                 .collect();
@@ -246,10 +429,10 @@ pub fn plot_trajectory_xy(
             }
             let c = status_color(status);
             let series = chart
-                .draw_series(sel.iter().filter_map(|f| {
-                    f.est
-                        .map(|e| Circle::new((e.translation.x, e.translation.y), 3, c.filled()))
-                }))
+                .draw_series(
+                    sel.iter()
+                        .filter_map(|f| f.est.map(|e| Circle::new(e, 3, c.filled()))),
+                )
                 .map_err(|e| e.to_string())?;
             if text {
                 series
@@ -284,6 +467,7 @@ fn error_panel(
     y_desc: &str,
     n_frames: usize,
     values: &[(usize, f64, Option<Status>)],
+    join: bool,
 ) -> Result<(), String> {
     let ymax = values.iter().map(|v| v.1).fold(0.0f64, f64::max).max(1e-6) * 1.05;
     let mut b = ChartBuilder::on(area);
@@ -310,7 +494,7 @@ fn error_panel(
     if !text {
         border(&mut chart, (0.0, (n_frames.max(2) - 1) as f64), (0.0, ymax))?;
     }
-    for w in values.windows(2) {
+    for w in values.windows(2).filter(|_| join) {
         if w[1].0 == w[0].0 + 1 {
             chart
                 .draw_series(std::iter::once(PathElement::new(
@@ -339,17 +523,8 @@ pub fn plot_errors_along(
     path: &Path,
     config: &PlotConfig,
 ) -> Result<(), EvalError> {
-    let n = eval.frames.len();
-    let pos: Vec<_> = eval
-        .frames
-        .iter()
-        .filter_map(|f| f.position_mm.map(|e| (f.frame, e, f.status)))
-        .collect();
-    let rot: Vec<_> = eval
-        .frames
-        .iter()
-        .filter_map(|f| f.orientation_deg.map(|e| (f.frame, e, f.status)))
-        .collect();
+    let n = eval.plots.frames;
+    let (pos, rot) = (&eval.plots.along_position, &eval.plots.along_orientation);
     render_png(path, config, |root, text| {
         let (a, b) = root.split_vertically(root.dim_in_pixel().1 / 2);
         error_panel(
@@ -358,7 +533,8 @@ pub fn plot_errors_along(
             "Position error along the trajectory",
             "mm",
             n,
-            &pos,
+            pos,
+            eval.plots.stride == 1,
         )?;
         error_panel(
             &b,
@@ -366,7 +542,8 @@ pub fn plot_errors_along(
             "Orientation error along the trajectory",
             "degrees",
             n,
-            &rot,
+            rot,
+            eval.plots.stride == 1,
         )
     })
 }
@@ -376,12 +553,14 @@ fn cdf_panel(
     text: bool,
     title: &str,
     x_desc: &str,
-    values: &[f64],
+    cdf: &Cdf,
     frames: usize,
 ) -> Result<(), String> {
-    let mut sorted = values.to_vec();
-    sorted.sort_by(f64::total_cmp);
-    let xmax = sorted.last().copied().unwrap_or(1.0).max(1e-6) * 1.05;
+    let largest = match cdf {
+        Cdf::Sorted(v) => v.last().copied(),
+        Cdf::Histogram { max, .. } => Some(*max),
+    };
+    let xmax = largest.unwrap_or(1.0).max(1e-6) * 1.05;
     let mut b = ChartBuilder::on(area);
     b.margin(15)
         .x_label_area_size(if text { 40 } else { 0 })
@@ -409,11 +588,28 @@ fn cdf_panel(
     // curve below 1 (its plateau is the localized fraction).
     let denom = frames.max(1) as f64;
     let mut step = vec![(0.0, 0.0)];
-    for (i, &e) in sorted.iter().enumerate() {
-        step.push((e, i as f64 / denom));
-        step.push((e, (i + 1) as f64 / denom));
+    let mut below = 0u64;
+    match cdf {
+        Cdf::Sorted(sorted) => {
+            for (i, &e) in sorted.iter().enumerate() {
+                step.push((e, i as f64 / denom));
+                step.push((e, (i + 1) as f64 / denom));
+            }
+            below = sorted.len() as u64;
+        }
+        Cdf::Histogram { max, counts } => {
+            let w = max / counts.len() as f64;
+            for (b, &c) in counts.iter().enumerate() {
+                if c > 0 {
+                    let x = b as f64 * w;
+                    step.push((x, below as f64 / denom));
+                    below += c;
+                    step.push((x + w, below as f64 / denom));
+                }
+            }
+        }
     }
-    step.push((xmax, sorted.len() as f64 / denom));
+    step.push((xmax, below as f64 / denom));
     chart
         .draw_series(LineSeries::new(step, UNKNOWN.stroke_width(2)))
         .map_err(|e| e.to_string())?;
@@ -429,13 +625,8 @@ pub fn plot_error_cdf(
     path: &Path,
     config: &PlotConfig,
 ) -> Result<(), EvalError> {
-    let pos: Vec<f64> = eval.frames.iter().filter_map(|f| f.position_mm).collect();
-    let rot: Vec<f64> = eval
-        .frames
-        .iter()
-        .filter_map(|f| f.orientation_deg)
-        .collect();
-    let n = eval.frames.len();
+    let (pos, rot) = (&eval.plots.cdf_position, &eval.plots.cdf_orientation);
+    let n = eval.plots.frames;
     let cfg = PlotConfig {
         height_px: config.height_px / 2 + 50,
         ..*config
@@ -447,7 +638,7 @@ pub fn plot_error_cdf(
             text,
             "Position error CDF",
             "position error (mm)",
-            &pos,
+            pos,
             n,
         )?;
         cdf_panel(
@@ -455,7 +646,7 @@ pub fn plot_error_cdf(
             text,
             "Orientation error CDF",
             "orientation error (degrees)",
-            &rot,
+            rot,
             n,
         )
     })

@@ -33,24 +33,31 @@ pub struct Statistics {
     pub std: f64,
 }
 
-/// The `q`-th percentile (`q` in `[0, 100]`) of `sorted` (ascending, non-empty), numpy's
-/// default linear method (see the module docs). Returns NaN for an empty slice.
-pub fn percentile_sorted(sorted: &[f64], q: f64) -> f64 {
-    let n = sorted.len();
-    if n == 0 {
-        return f64::NAN;
-    }
+/// Where the `q`-th percentile (`q` in `[0, 100]`) of `n ≥ 1` sorted values lies: the ranks
+/// `lo`, `hi` (0-based) and the weight `t` of `hi`, numpy's default linear method.
+pub(crate) fn percentile_position(n: usize, q: f64) -> (usize, usize, f64) {
     let h = (q / 100.0).clamp(0.0, 1.0) * (n - 1) as f64;
     let lo = h.floor() as usize;
-    let hi = (lo + 1).min(n - 1);
-    let t = h - lo as f64;
-    let (a, b) = (sorted[lo], sorted[hi]);
-    // numpy's `_lerp`: symmetric form for accuracy near t = 1.
+    (lo, (lo + 1).min(n - 1), h - lo as f64)
+}
+
+/// numpy's `_lerp`: `a + (b − a)·t`, in the symmetric form that is accurate near `t = 1`.
+pub(crate) fn lerp(a: f64, b: f64, t: f64) -> f64 {
     if t >= 0.5 {
         b - (b - a) * (1.0 - t)
     } else {
         a + (b - a) * t
     }
+}
+
+/// The `q`-th percentile (`q` in `[0, 100]`) of `sorted` (ascending, non-empty), numpy's
+/// default linear method (see the module docs). Returns NaN for an empty slice.
+pub fn percentile_sorted(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let (lo, hi, t) = percentile_position(sorted.len(), q);
+    lerp(sorted[lo], sorted[hi], t)
 }
 
 /// The `q`-th percentile (`q` in `[0, 100]`) of `values` in any order, numpy's default linear

@@ -6,7 +6,6 @@
 //! `frame,timestamp_s,localized,position_mm,orientation_deg,status,zone,gt_zone`
 //! (empty cells where unknown; `zone` is the predicted zone).
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use crate::EvalError;
@@ -64,27 +63,45 @@ pub struct Written {
     pub plot_text: bool,
 }
 
-/// The per-frame error table as CSV text.
-pub fn format_errors_csv(eval: &Evaluation) -> String {
-    let mut s = String::from(ERRORS_CSV_HEADER);
-    s.push('\n');
+/// Writes the per-frame error table as CSV to `out`, one frame at a time; `path` names the
+/// file in errors.
+///
+/// # Errors
+/// [`EvalError::Io`] naming `path` when writing fails, or reading the evaluation's records.
+pub fn write_errors_csv(
+    eval: &Evaluation,
+    out: &mut dyn std::io::Write,
+    path: &Path,
+) -> Result<(), EvalError> {
+    let io = |e| EvalError::io(path, e);
+    writeln!(out, "{ERRORS_CSV_HEADER}").map_err(io)?;
     let o = |v: Option<f64>| v.map(|x| format!("{x:.9}")).unwrap_or_default();
     let u = |v: Option<usize>| v.map(|x| x.to_string()).unwrap_or_default();
-    for f in &eval.frames {
-        let _ = writeln!(
-            s,
+    eval.for_each_frame(|f| {
+        writeln!(
+            out,
             "{},{:.6},{},{},{},{},{},{}",
             f.frame,
             f.timestamp_s,
-            u8::from(f.est.is_some()),
+            u8::from(f.localized),
             o(f.position_mm),
             o(f.orientation_deg),
             f.status.map(|s| s.as_str()).unwrap_or(""),
             u(f.zone),
             u(f.gt_zone)
-        );
-    }
-    s
+        )
+        .map_err(io)
+    })
+}
+
+/// The per-frame error table as CSV text (small passes; [`write_errors_csv`] streams).
+///
+/// # Errors
+/// As [`write_errors_csv`].
+pub fn format_errors_csv(eval: &Evaluation) -> Result<String, EvalError> {
+    let mut v = Vec::new();
+    write_errors_csv(eval, &mut v, Path::new(ERRORS_CSV))?;
+    String::from_utf8(v).map_err(|e| EvalError::Invalid(e.to_string()))
 }
 
 /// Writes all outputs of `eval` into `dir` (created if missing).
@@ -109,7 +126,8 @@ pub fn write_results(
     })?;
     out.write(METRICS_JSON, format!("{json}\n").as_bytes())?;
     files.push(out.path(METRICS_JSON));
-    out.write(ERRORS_CSV, format_errors_csv(eval).as_bytes())?;
+    let errors_csv = out.path(ERRORS_CSV);
+    out.write_with(ERRORS_CSV, |w| write_errors_csv(eval, w, &errors_csv))?;
     files.push(out.path(ERRORS_CSV));
     let mut plots = Vec::new();
     let plot_text = !options.no_plots && options.plot.text.unwrap_or_else(text_available);
@@ -121,11 +139,24 @@ pub fn write_results(
         plot_trajectory_xy(eval, &out.path(PLOTS[0].0), &cfg)?;
         plot_errors_along(eval, &out.path(PLOTS[1].0), &cfg)?;
         plot_error_cdf(eval, &out.path(PLOTS[2].0), &cfg)?;
-        for (file, caption) in PLOTS {
+        let k = eval.plots.stride;
+        let thinned = [
+            format!(" Every {k}th frame of the {} is drawn.", eval.plots.frames),
+            format!(" Each run of {k} frames shows its smallest and largest error."),
+            format!(
+                " Drawn from a 4096-bin histogram of the {} frames.",
+                eval.plots.frames
+            ),
+        ];
+        for ((file, caption), note) in PLOTS.into_iter().zip(thinned) {
             files.push(out.path(file));
             plots.push(PlotRef {
                 file: file.into(),
-                caption: caption.into(),
+                caption: if k > 1 {
+                    format!("{caption}{note}")
+                } else {
+                    caption.into()
+                },
             });
         }
     }

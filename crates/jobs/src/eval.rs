@@ -3,13 +3,13 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use endoloc_data::read_tum;
+use endoloc_data::TumReader;
 use endoloc_eval::align::AlignmentKind;
 use endoloc_eval::association::AssociationConfig;
 use endoloc_eval::rpe::RpeConfig;
 use endoloc_eval::{
-    EvalConfig, EvalInputs, Evaluation, Sources, WriteOptions, evaluate, read_frames_csv,
-    read_zones_csv, write_results,
+    EvalConfig, EvalFiles, FramesCsvReader, Metrics, Sources, WriteOptions, ZonesCsvReader,
+    evaluate_files, write_results,
 };
 use serde::{Deserialize, Serialize};
 
@@ -72,8 +72,8 @@ impl Default for EvalJob {
 /// What `EvalJob` found and wrote.
 #[derive(Debug, Clone)]
 pub struct EvalReport {
-    /// Metrics (`evaluation.metrics`) and per-frame errors.
-    pub evaluation: Evaluation,
+    /// The metrics (as in `metrics.json`).
+    pub metrics: Metrics,
     /// Every file written, in order.
     pub files: Vec<PathBuf>,
     /// The output folder.
@@ -118,8 +118,6 @@ impl EvalJob {
     /// An unreadable input, trajectories that do not associate, or existing outputs without
     /// `force`.
     pub fn run(&self, progress: &dyn Progress) -> Result<EvalReport> {
-        let gt = read_tum(&self.gt).context("reading the ground truth (--gt)")?;
-        let est = read_tum(&self.est).context("reading the estimate (--est)")?;
         let frames_path = self.frames.clone().or_else(|| {
             let p = parent_or_dot(&self.est).join("frames.csv");
             p.is_file().then(|| {
@@ -127,23 +125,31 @@ impl EvalJob {
                 p
             })
         });
-        let frames = frames_path
-            .as_deref()
-            .map(read_frames_csv)
-            .transpose()
-            .context("reading frames.csv")?;
-        let zones = self
-            .gt_zones
-            .as_deref()
-            .map(read_zones_csv)
-            .transpose()
-            .context("reading the ground-truth zones (--gt-zones)")?;
-        let evaluation = evaluate(
-            &EvalInputs {
-                gt: &gt,
-                est: &est,
-                frames: frames.as_deref(),
-                gt_zones: zones.as_deref(),
+        // Every input is read line by line, here once to say which one is bad and then by
+        // the evaluation's passes: memory does not grow with the length of the pass.
+        type Checked = std::result::Result<(), endoloc_eval::EvalError>;
+        let tum = |p: &Path| -> Checked { Ok(TumReader::open(p)?.try_for_each(|r| r.map(drop))?) };
+        tum(&self.gt).context("reading the ground truth (--gt)")?;
+        tum(&self.est).context("reading the estimate (--est)")?;
+        if let Some(p) = &frames_path {
+            let frames = || -> Checked { FramesCsvReader::open(p)?.try_for_each(|r| r.map(drop)) };
+            frames().context("reading frames.csv")?;
+        }
+        if let Some(p) = &self.gt_zones {
+            let zones = || -> Checked { ZonesCsvReader::open(p)?.try_for_each(|r| r.map(drop)) };
+            zones().context("reading the ground-truth zones (--gt-zones)")?;
+        }
+        let out = self.out_dir();
+        // Written next to `out` first, then moved in together: a killed run leaves the
+        // earlier results as they were.
+        let staged = crate::output::StagedFiles::new(&out)?;
+        let evaluation = evaluate_files(
+            &EvalFiles {
+                gt: self.gt.clone(),
+                est: self.est.clone(),
+                frames: frames_path.clone(),
+                gt_zones: self.gt_zones.clone(),
+                scratch_dir: Some(staged.dir().to_path_buf()),
             },
             &self.eval_config(),
         )
@@ -154,11 +160,7 @@ impl EvalJob {
                 self.gt.display()
             )
         })?;
-        let out = self.out_dir();
         let shown = |p: &Path| p.display().to_string();
-        // Written next to `out` first, then moved in together: a killed run leaves the
-        // earlier results as they were.
-        let staged = crate::output::StagedFiles::new(&out)?;
         let written = write_results(
             &evaluation,
             staged.dir(),
@@ -193,7 +195,7 @@ impl EvalJob {
             progress.note("warning: no usable system font (fontconfig): plots drawn without text");
         }
         Ok(EvalReport {
-            evaluation,
+            metrics: evaluation.metrics,
             files,
             out,
         })
@@ -202,7 +204,7 @@ impl EvalJob {
 
 impl fmt::Display for EvalReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let m = &self.evaluation.metrics;
+        let m = &self.metrics;
         writeln!(
             f,
             "frames {}  localized {} ({:.1} %)",

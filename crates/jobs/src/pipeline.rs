@@ -369,7 +369,7 @@ impl DemoJob {
             view.run(progress)
         })?;
         let summary = run.summary.unwrap_or_default();
-        let m = &evaluated.evaluation.metrics;
+        let m = &evaluated.metrics;
         Ok(DemoReport {
             timings: t,
             refined: summary.refined(),

@@ -301,8 +301,8 @@ mod tests {
             ..crate::EvalJob::default()
         };
         let report = eval.run(&crate::Silent).unwrap();
-        assert_eq!(report.evaluation.metrics.localized, 12);
-        assert!(report.evaluation.metrics.position_mm.max < 1e-9);
+        assert_eq!(report.metrics.localized, 12);
+        assert!(report.metrics.position_mm.max < 1e-9);
         assert!(tmp.path().join("eval/metrics.json").is_file());
     }
 }
