@@ -772,3 +772,90 @@ fn features_writes_keypoints_and_overlay_and_keeps_them_without_force() {
     let err = fails(&["features", &p("frame.png"), "--overlay", &p("o.jpg")]);
     assert!(err.contains("o.jpg") && err.contains(".png"), "{err}");
 }
+
+/// `experiment benchmark`: one command per colon from `--print-jobs`, a colon run alone,
+/// a merge that names the colons not finished, then the whole run reusing the finished one;
+/// the summary is the mean ± 95 % interval over the colons.
+#[test]
+fn the_benchmark_runs_colon_by_colon_and_merges() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = s(&tmp.path().join("bench"));
+    let base = [
+        "experiment",
+        "benchmark",
+        "--preset",
+        "small",
+        "--seeds",
+        "1-2",
+        "--train-frames",
+        "60",
+        "--test-frames",
+        "30",
+        "--zones",
+        "6",
+        "--methods",
+        "endoloc-live,classify",
+        "--out",
+        &out,
+    ];
+    let with = |extra: &[&str]| -> Vec<String> {
+        base.iter().chain(extra).map(|a| a.to_string()).collect()
+    };
+    let run = |extra: &[&str]| -> String {
+        let a = with(extra);
+        ok(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let jobs = run(&["--print-jobs"]);
+    let lines: Vec<&str> = jobs.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 3, "{jobs}");
+    assert!(lines[0].ends_with("--colon seed-1") && lines[1].ends_with("--colon seed-2"));
+    assert!(
+        lines[2].starts_with('#') && lines[2].ends_with("--merge"),
+        "{jobs}"
+    );
+    assert!(!Path::new(&out).exists(), "--print-jobs writes nothing");
+
+    run(&["--colon", "seed-1"]);
+    let bench = Path::new(&out);
+    assert!(bench.join("colons/seed-1/row.json").is_file());
+    assert!(!bench.join("benchmark.md").exists());
+    let merged = run(&["--merge"]);
+    assert!(merged.contains("not finished: seed-2"), "{merged}");
+    let md = std::fs::read_to_string(bench.join("benchmark.md")).unwrap();
+    assert!(md.contains("Not finished: seed-2"), "{md}");
+
+    let all = run(&[]);
+    assert!(all.contains("reusing   seed-1"), "{all}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(bench.join("benchmark.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["colons"].as_array().unwrap().len(), 2);
+    assert!(json["missing"].as_array().unwrap().is_empty());
+    let live = &json["summary"][0];
+    assert_eq!(live["method"], "endoloc-live");
+    let pos = &live["median_position_mm"];
+    assert_eq!(pos["colons"], 2);
+    let per_colon: Vec<f64> = json["colons"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["methods"][0]["median_position_mm"].as_f64().unwrap())
+        .collect();
+    let mean = pos["mean"].as_f64().unwrap();
+    assert!((mean - 0.5 * (per_colon[0] + per_colon[1])).abs() < 1e-9);
+    // Two colons: t(1) = 12.706 times the standard error.
+    let se = (per_colon[0] - per_colon[1]).abs() / 2.0;
+    assert!((pos["half_width"].as_f64().unwrap() - 12.706 * se).abs() < 1e-6);
+    assert!(bench.join("benchmark.png").is_file() && bench.join("report.html").is_file());
+
+    let err = fails(
+        &with(&["--colon", "seed-9"])
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    assert!(
+        err.contains("not a colon of this benchmark") && err.contains("seed-1, seed-2"),
+        "{err}"
+    );
+}

@@ -1,6 +1,7 @@
 //! The paper's comparisons and studies, each in one output folder with its tables (markdown,
 //! JSON), plots and a self-contained HTML report.
 //!
+//! - [`BenchmarkJob`] — the whole chain over several colons, mean ± 95 % confidence interval;
 //! - [`CompareJob`] — every method on the same data (the paper's Table I);
 //! - [`ZoneSweepJob`] — the Monte-Carlo zone-count sweep (the paper's Fig. 4), resumable;
 //! - [`ExpertJob`] — anatomical zones against uniform ones;
@@ -10,12 +11,16 @@
 //! and a second run continues where the first stopped. SURF features of the test frames are
 //! extracted once per run and shared by every method that needs them.
 
+mod benchmark;
 mod common;
 mod compare;
 mod expert;
 mod perturb;
 mod zones;
 
+pub use benchmark::{
+    BenchmarkJob, BenchmarkReport, ColonRow, Interval, MethodSummary, interval, parse_seeds, t95,
+};
 pub use common::{DataArgs as ExperimentData, ExperimentReport, MethodRow};
 pub use compare::{CompareJob, Method as CompareMethod};
 pub use expert::ExpertJob;

@@ -2,6 +2,7 @@
 //! its tables (markdown, JSON), plots and a self-contained HTML report. Experiments reuse what
 //! they already computed: running the same command again continues where it stopped.
 
+mod benchmark;
 mod compare;
 mod expert;
 mod perturb;
@@ -22,6 +23,7 @@ pub struct Args {
 
 #[derive(Debug, clap::Subcommand)]
 enum What {
+    Benchmark(benchmark::Args),
     Compare(compare::Args),
     Zones(zones::Args),
     Expert(expert::Args),
@@ -55,6 +57,7 @@ impl From<DataArgs> for ExperimentData {
 /// Runs `endoloc experiment`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
     match args.what {
+        What::Benchmark(a) => benchmark::run(a, ui),
         What::Compare(a) => compare::run(a, ui),
         What::Zones(a) => zones::run(a, ui),
         What::Expert(a) => expert::run(a, ui),
