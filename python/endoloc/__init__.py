@@ -7,7 +7,7 @@ The same library as the ``endoloc`` command line, in process:
 - ``Model.load(path)``: the zone classifier (``classify``, ``describe``);
 - ``Localizer(model, live=True)``: ``localize(image)`` frame by frame, as ``endoloc localize``;
 - the jobs — ``simulate``, ``train``, ``map``, ``localize``, ``eval``, ``classify``, ``view``,
-  ``features``, ``pretrain``, ``demo``, ``run`` and ``experiment.compare`` / ``zones`` /
+  ``features``, ``pretrain``, ``demo``, ``run`` and ``experiment.benchmark`` / ``compare`` / ``zones`` /
   ``expert`` / ``perturb`` — with the command line's options as keyword arguments
   (``--images-per-zone 8`` is ``images_per_zone=8``);
 - ``read_tum`` / ``write_tum`` for trajectories (readable by evo).

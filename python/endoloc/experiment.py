@@ -6,7 +6,12 @@ from __future__ import annotations
 
 from ._jobs import job
 
-__all__ = ["compare", "expert", "perturb", "zones"]
+__all__ = ["benchmark", "compare", "expert", "perturb", "zones"]
+
+
+def benchmark(*, progress=None, **options):
+    """The whole chain over several colons; each method's mean ± 95 % interval across them."""
+    return job("experiment.benchmark", progress, options)
 
 
 def compare(*, progress=None, **options):

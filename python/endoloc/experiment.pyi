@@ -8,6 +8,50 @@ from ._endoloc import Report
 StrPath = str | os.PathLike[str]
 ProgressArg = bool | Callable[[str, str, int, int], object] | None
 
+def benchmark(
+    *,
+    out: StrPath = ...,
+    preset: str = ...,
+    seeds: Seq[int] = ...,
+    gca: Seq[StrPath] = ...,
+    inflation: float | None = ...,
+    train_frames: int | None = ...,
+    test_frames: int | None = ...,
+    zones: str = ...,
+    pretrained: str = ...,
+    epochs: int | None = ...,
+    seed: int = ...,
+    methods: Seq[str] = ...,
+    colon: str | None = ...,
+    print_jobs: bool = ...,
+    merge: bool = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """The whole chain over several colons; each method's mean ± 95 % interval across them.
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``out``: Output folder.
+    - ``preset``: Simulator preset of every colon.
+    - ``seeds``: Procedural colons: simulator seeds (default 1 to 8).
+    - ``gca``: CT colons: GCA model folders.
+    - ``inflation``: Lumen inflation of the CT colons.
+    - ``train_frames``: Frames of each training pass (default: the preset's).
+    - ``test_frames``: Frames of each test pass (default: the preset's).
+    - ``zones``: Zones (a count, or `expert`).
+    - ``pretrained``: Start weights of the zone network (`builtin-joint`); empty: train
+      from scratch on each colon.
+    - ``epochs``: Training epochs (default: 0 with ``pretrained``, else the schedule's own).
+    - ``seed``: Seed of every training.
+    - ``methods``: Methods (default: endoloc-paper, endoloc, endoloc-live, classify).
+    - ``colon``: Run only this colon (`seed-N` or `ct-<folder>`).
+    - ``print_jobs``: Print one command per colon and the merge command, and stop.
+    - ``merge``: Run nothing: write the tables from the finished colons.
+    - ``force``: Use an output folder that holds something else.
+    """
+    ...
+
 def compare(
     *,
     data: StrPath = ...,

@@ -25,6 +25,7 @@ JOBS = {
     "features": "features",
     "pretrain": "pretrain",
     "demo": "demo",
+    "experiment.benchmark": "experiment benchmark",
     "experiment.compare": "experiment compare",
     "experiment.zones": "experiment zones",
     "experiment.expert": "experiment expert",

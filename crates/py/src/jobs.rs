@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use endoloc_jobs::experiment::{CompareJob, ExpertJob, PerturbJob, ZoneSweepJob};
+use endoloc_jobs::experiment::{BenchmarkJob, CompareJob, ExpertJob, PerturbJob, ZoneSweepJob};
 use endoloc_jobs::{
     ClassifyJob, DemoJob, EvalJob, FeaturesJob, LocalizeJob, MapJob, PretrainJob, Progress, RunJob,
     SimulateJob, TrainJob, ViewJob,
@@ -34,6 +34,7 @@ pub const JOBS: &[&str] = &[
     "features",
     "pretrain",
     "demo",
+    "experiment.benchmark",
     "experiment.compare",
     "experiment.zones",
     "experiment.expert",
@@ -68,6 +69,7 @@ pub fn options_of(job: &str) -> PyResult<Vec<String>> {
         "features" => fields::<FeaturesJob>(),
         "pretrain" => fields::<PretrainJob>(),
         "demo" => fields::<DemoJob>(),
+        "experiment.benchmark" => fields::<BenchmarkJob>(),
         "experiment.compare" => fields::<CompareJob>(),
         "experiment.zones" => fields::<ZoneSweepJob>(),
         "experiment.expert" => fields::<ExpertJob>(),
@@ -383,6 +385,7 @@ pub fn run_job(
         "features" => go!(FeaturesJob, |j: &FeaturesJob, _| j.overlay.clone()),
         "pretrain" => go!(PretrainJob, |j: &PretrainJob, _| non_empty(&j.out)),
         "demo" => go!(DemoJob, |j: &DemoJob, _| non_empty(&j.out)),
+        "experiment.benchmark" => go!(BenchmarkJob, |j: &BenchmarkJob, _| non_empty(&j.out)),
         "experiment.compare" => go!(CompareJob, |j: &CompareJob, _| non_empty(&j.out)),
         "experiment.zones" => go!(ZoneSweepJob, |j: &ZoneSweepJob, _| non_empty(&j.out)),
         "experiment.expert" => go!(ExpertJob, |j: &ExpertJob, _| non_empty(&j.out)),

@@ -14,7 +14,8 @@ use anyhow::Result;
 use endoloc_jobs::Progress;
 use endoloc_jobs::experiment::ExperimentData;
 
-/// Run the paper's comparisons and studies (Table I, Fig. 4, Fig. 7, anatomical zones).
+/// Run the paper's comparisons and studies (Table I, Fig. 4, Fig. 7, anatomical zones) and the
+/// benchmark across colons.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(subcommand)]
