@@ -535,7 +535,7 @@ impl BenchmarkJob {
         }
         md.push_str("\n## Per colon\n\n");
         md.push_str(&colon_table(rows));
-        md.push_str("\n![per-colon errors of each method](benchmark.png)\n\nReproduce: `");
+        md.push_str("\n![mean errors of each colon, by method](benchmark.png)\n\nReproduce: `");
         md.push_str(&self.command(None).replace(" --merge", ""));
         md.push_str("`\n");
         common::write_text(&self.out.join("benchmark.md"), &md)?;
@@ -569,8 +569,8 @@ impl BenchmarkJob {
                 };
                 BoxColumn {
                     x: (k + 1) as f64,
-                    position_mm: of(|r| r.median_position_mm),
-                    orientation_deg: of(|r| r.median_orientation_deg),
+                    position_mm: of(|r| r.mean_position_mm),
+                    orientation_deg: of(|r| r.mean_orientation_deg),
                 }
             })
             .collect();
@@ -597,7 +597,7 @@ impl BenchmarkJob {
         if let Some(b) = common::image_block(
             &png,
             &format!(
-                "Median errors of each colon, by method ({})",
+                "Mean errors of each colon, by method ({})",
                 legend.join(", ")
             ),
             progress,
@@ -666,10 +666,13 @@ const SUMMARY_HEADER: [&str; 7] = [
     "median orient. °",
 ];
 
+/// `mean ± half-width`; a figure from one colon has no interval and is shown alone.
 fn pm(i: Option<Interval>, digits: usize) -> String {
-    i.map_or("—".into(), |i| {
-        format!("{:.digits$} ± {:.digits$}", i.mean, i.half_width)
-    })
+    match i {
+        None => "—".into(),
+        Some(i) if i.colons < 2 => format!("{:.digits$}", i.mean),
+        Some(i) => format!("{:.digits$} ± {:.digits$}", i.mean, i.half_width),
+    }
 }
 
 fn summary_cells(s: &MethodSummary) -> Vec<String> {
