@@ -70,21 +70,9 @@ pub(crate) fn parent_dir(path: &Path) -> PathBuf {
 /// # Errors
 /// [`DataError::Io`] naming `path` (not the temporary file).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DataError> {
-    let tmp = hidden_sibling(path, "tmp");
-    let result = (|| {
-        // Errors name the destination: the temporary name means nothing to a user.
-        let mut f = File::create(&tmp).map_err(|e| DataError::io(path, e))?;
-        f.write_all(bytes).map_err(|e| DataError::io(path, e))?;
-        f.sync_all().map_err(|e| DataError::io(path, e))?;
-        drop(f);
-        std::fs::rename(&tmp, path).map_err(|e| DataError::io(path, e))?;
-        sync_dir(&parent_dir(path));
-        Ok(())
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    write_atomic_with(path, |w| {
+        w.write_all(bytes).map_err(|e| DataError::io(path, e))
+    })
 }
 
 /// Writes `path` atomically as [`write_atomic`] does, with the content produced by `fill`

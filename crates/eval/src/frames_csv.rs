@@ -214,92 +214,28 @@ pub fn parse_frames_csv(text: &str, path: &Path) -> Result<Vec<FrameRecord>, Eva
     Ok(rows)
 }
 
+/// The `frames.csv` layout for [`crate::rows_reader::FrameRowsReader`].
+#[derive(Debug, Clone, Copy)]
+pub struct FramesCsv;
+
+impl crate::rows_reader::FrameCsv for FramesCsv {
+    type Row = FrameRecord;
+    /// `true`: the eight-column layout.
+    type Header = bool;
+    fn header(line: Option<(usize, &str)>, path: &Path) -> Result<bool, EvalError> {
+        parse_header(line, path)
+    }
+    fn row(line: &str, v1: bool) -> Result<FrameRecord, String> {
+        parse_row(line, v1)
+    }
+    fn frame(row: &FrameRecord) -> usize {
+        row.frame
+    }
+}
+
 /// `frames.csv` read one row at a time, in memory independent of its length: the rows must
 /// be in frame order (as endoloc writes them), which also rules out a repeated frame.
-pub struct FramesCsvReader<R> {
-    lines: endoloc_data::fsutil::TextLines<R>,
-    path: std::path::PathBuf,
-    v1: Option<bool>,
-    last: Option<usize>,
-    failed: bool,
-}
-
-impl FramesCsvReader<std::io::BufReader<std::fs::File>> {
-    /// Opens `frames.csv` at `path`.
-    ///
-    /// # Errors
-    /// [`EvalError::Data`] naming `path` when it cannot be opened.
-    pub fn open(path: &Path) -> Result<Self, EvalError> {
-        Ok(Self::new(
-            path,
-            endoloc_data::fsutil::TextLines::open(path)?,
-        ))
-    }
-}
-
-impl<R: std::io::BufRead> FramesCsvReader<R> {
-    /// Rows from `lines`; `path` names the file in errors.
-    pub fn new(path: &Path, lines: endoloc_data::fsutil::TextLines<R>) -> Self {
-        Self {
-            lines,
-            path: path.to_path_buf(),
-            v1: None,
-            last: None,
-            failed: false,
-        }
-    }
-
-    fn step(&mut self, line_no: usize, line: &str) -> Result<Option<FrameRecord>, EvalError> {
-        if line.trim().is_empty() {
-            return Ok(None);
-        }
-        let Some(v1) = self.v1 else {
-            self.v1 = Some(parse_header(Some((line_no, line)), &self.path)?);
-            return Ok(None);
-        };
-        let row =
-            parse_row(line.trim(), v1).map_err(|m| EvalError::parse(&self.path, line_no, m))?;
-        if let Some(last) = self.last
-            && row.frame <= last
-        {
-            return Err(EvalError::parse(
-                &self.path,
-                line_no,
-                format!(
-                    "frame {} after frame {last}; expected one row per frame, in frame order",
-                    row.frame
-                ),
-            ));
-        }
-        self.last = Some(row.frame);
-        Ok(Some(row))
-    }
-}
-
-impl<R: std::io::BufRead> Iterator for FramesCsvReader<R> {
-    type Item = Result<FrameRecord, EvalError>;
-
-    /// The next row; after the first error, `None`.
-    fn next(&mut self) -> Option<Self::Item> {
-        while !self.failed {
-            let step = match self.lines.next() {
-                None if self.v1.is_none() => parse_header(None, &self.path).map(|_| None),
-                None => return None,
-                Some(Err(e)) => Err(e.into()),
-                Some(Ok((n, line))) => self.step(n, &line),
-            };
-            match step {
-                Ok(Some(row)) => return Some(Ok(row)),
-                Ok(None) => {}
-                Err(e) => {
-                    self.failed = true;
-                    return Some(Err(e));
-                }
-            }
-        }
-        None
-    }
-}
+pub type FramesCsvReader<R> = crate::rows_reader::FrameRowsReader<R, FramesCsv>;
 
 /// Reads `frames.csv` (see the module docs for the format).
 ///

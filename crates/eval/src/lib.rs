@@ -27,6 +27,7 @@ pub mod npy;
 pub mod output;
 pub mod plots;
 pub mod report;
+pub mod rows_reader;
 pub mod rpe;
 mod select;
 pub mod source;

@@ -92,92 +92,27 @@ pub fn parse_zones_csv(text: &str, path: &Path) -> Result<Vec<ZoneLabel>, EvalEr
     Ok(out)
 }
 
+/// The zones-file layout for [`crate::rows_reader::FrameRowsReader`].
+#[derive(Debug, Clone, Copy)]
+pub struct ZonesCsv;
+
+impl crate::rows_reader::FrameCsv for ZonesCsv {
+    type Row = ZoneLabel;
+    type Header = ();
+    fn header(line: Option<(usize, &str)>, path: &Path) -> Result<(), EvalError> {
+        parse_header(line, path)
+    }
+    fn row(line: &str, (): ()) -> Result<ZoneLabel, String> {
+        parse_row(line)
+    }
+    fn frame(row: &ZoneLabel) -> usize {
+        row.frame
+    }
+}
+
 /// A zones file read one row at a time, in memory independent of its length: the rows must
 /// be in frame order, which also rules out a repeated frame.
-pub struct ZonesCsvReader<R> {
-    lines: endoloc_data::fsutil::TextLines<R>,
-    path: std::path::PathBuf,
-    header: bool,
-    last: Option<usize>,
-    failed: bool,
-}
-
-impl ZonesCsvReader<std::io::BufReader<std::fs::File>> {
-    /// Opens the zones file at `path`.
-    ///
-    /// # Errors
-    /// [`EvalError::Data`] naming `path` when it cannot be opened.
-    pub fn open(path: &Path) -> Result<Self, EvalError> {
-        Ok(Self::new(
-            path,
-            endoloc_data::fsutil::TextLines::open(path)?,
-        ))
-    }
-}
-
-impl<R: std::io::BufRead> ZonesCsvReader<R> {
-    /// Rows from `lines`; `path` names the file in errors.
-    pub fn new(path: &Path, lines: endoloc_data::fsutil::TextLines<R>) -> Self {
-        Self {
-            lines,
-            path: path.to_path_buf(),
-            header: false,
-            last: None,
-            failed: false,
-        }
-    }
-
-    fn step(&mut self, line_no: usize, line: &str) -> Result<Option<ZoneLabel>, EvalError> {
-        if line.trim().is_empty() {
-            return Ok(None);
-        }
-        if !self.header {
-            parse_header(Some((line_no, line)), &self.path)?;
-            self.header = true;
-            return Ok(None);
-        }
-        let label = parse_row(line).map_err(|m| EvalError::parse(&self.path, line_no, m))?;
-        if let Some(last) = self.last
-            && label.frame <= last
-        {
-            return Err(EvalError::parse(
-                &self.path,
-                line_no,
-                format!(
-                    "frame {} after frame {last}; expected one row per frame, in frame order",
-                    label.frame
-                ),
-            ));
-        }
-        self.last = Some(label.frame);
-        Ok(Some(label))
-    }
-}
-
-impl<R: std::io::BufRead> Iterator for ZonesCsvReader<R> {
-    type Item = Result<ZoneLabel, EvalError>;
-
-    /// The next row; after the first error, `None`.
-    fn next(&mut self) -> Option<Self::Item> {
-        while !self.failed {
-            let step = match self.lines.next() {
-                None if !self.header => parse_header(None, &self.path).map(|()| None),
-                None => return None,
-                Some(Err(e)) => Err(e.into()),
-                Some(Ok((n, line))) => self.step(n, &line),
-            };
-            match step {
-                Ok(Some(row)) => return Some(Ok(row)),
-                Ok(None) => {}
-                Err(e) => {
-                    self.failed = true;
-                    return Some(Err(e));
-                }
-            }
-        }
-        None
-    }
-}
+pub type ZonesCsvReader<R> = crate::rows_reader::FrameRowsReader<R, ZonesCsv>;
 
 /// Reads a ground-truth zones file (see the module docs).
 ///
