@@ -18,7 +18,7 @@
 //! ([`EvalSource`]): once to check and count them, twice more for the alignment's means and
 //! covariance when one is asked for, once to compute every pair's error. The errors go to
 //! fixed-size records (memory, or an unnamed temporary file for [`EvalFiles`]), from which
-//! the statistics are computed exactly in nine more passes ([`crate::select`]); the plots
+//! the statistics are computed exactly in nine more passes (radix selection, `select.rs`); the plots
 //! keep at most [`crate::plots::PLOT_FRAMES`] frames.
 
 use std::collections::{BTreeMap, VecDeque};
