@@ -72,6 +72,8 @@ pub(crate) struct UmeyamaSums {
     n: usize,
     sum_x: Vector3<f64>,
     sum_y: Vector3<f64>,
+    /// Means, fixed at the first centred pair.
+    means: Option<(Vector3<f64>, Vector3<f64>)>,
     centred: usize,
     sigma_x: f64,
     cov: Matrix3<f64>,
@@ -83,6 +85,7 @@ impl UmeyamaSums {
             n: 0,
             sum_x: Vector3::zeros(),
             sum_y: Vector3::zeros(),
+            means: None,
             centred: 0,
             sigma_x: -0.0,
             cov: Matrix3::zeros(),
@@ -103,7 +106,10 @@ impl UmeyamaSums {
 
     /// Second pass: one pair (the same ones, in the same order).
     pub(crate) fn add_centred(&mut self, x: &Vector3<f64>, y: &Vector3<f64>) {
-        let (mean_x, mean_y) = self.means();
+        let (mean_x, mean_y) = *self.means.get_or_insert_with(|| {
+            let n = self.n as f64;
+            (self.sum_x / n, self.sum_y / n)
+        });
         self.sigma_x += (x - mean_x).norm_squared();
         self.cov += (y - mean_y) * (x - mean_x).transpose();
         self.centred += 1;

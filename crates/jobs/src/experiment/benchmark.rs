@@ -561,16 +561,11 @@ impl BenchmarkJob {
             .iter()
             .enumerate()
             .map(|(k, m)| {
-                let of = |f: fn(&MethodRow) -> Option<f64>| -> Vec<f64> {
-                    rows.iter()
-                        .filter_map(|r| r.methods.iter().find(|x| x.method == m.name()))
-                        .filter_map(f)
-                        .collect()
-                };
+                let name = m.name();
                 BoxColumn {
                     x: (k + 1) as f64,
-                    position_mm: of(|r| r.mean_position_mm),
-                    orientation_deg: of(|r| r.mean_orientation_deg),
+                    position_mm: per_colon(rows, &name, &|r| r.mean_position_mm),
+                    orientation_deg: per_colon(rows, &name, &|r| r.mean_orientation_deg),
                 }
             })
             .collect();
@@ -628,20 +623,21 @@ fn row_path(out: &Path, colon: &str) -> PathBuf {
     out.join("colons").join(colon).join("row.json")
 }
 
+/// One figure of method `name` in every colon that has it.
+fn per_colon(rows: &[ColonRow], name: &str, f: &dyn Fn(&MethodRow) -> Option<f64>) -> Vec<f64> {
+    rows.iter()
+        .filter_map(|r| r.methods.iter().find(|x| x.method == name))
+        .filter_map(f)
+        .collect()
+}
+
 /// Each method's figures across the colons that ran it.
 pub fn summarise(rows: &[ColonRow], methods: &[Method]) -> Vec<MethodSummary> {
     methods
         .iter()
         .map(|m| {
             let name = m.name();
-            let of = |f: &dyn Fn(&MethodRow) -> Option<f64>| -> Option<Interval> {
-                let v: Vec<f64> = rows
-                    .iter()
-                    .filter_map(|r| r.methods.iter().find(|x| x.method == name))
-                    .filter_map(f)
-                    .collect();
-                interval(&v)
-            };
+            let of = |f: &dyn Fn(&MethodRow) -> Option<f64>| interval(&per_colon(rows, &name, f));
             let pct = |part: usize, whole: usize| 100.0 * part as f64 / whole.max(1) as f64;
             MethodSummary {
                 method: name.clone(),
