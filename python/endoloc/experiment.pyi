@@ -101,6 +101,10 @@ def zones(
     threshold: float = ...,
     candidate_zones: int = ...,
     keep_models: bool = ...,
+    pretrained: StrPath | None = ...,
+    cell: str | None = ...,
+    print_jobs: bool = ...,
+    merge: bool = ...,
     force: bool = ...,
     progress: ProgressArg = None,
 ) -> Report:
@@ -122,7 +126,12 @@ def zones(
       and retried at it
     - ``candidate_zones``: Zones tried per frame (1 = the paper's rule).
     - ``keep_models``: Keep each run's model folder (weights, descriptors) instead of
-      deleting it once the
+      deleting it once the run is recorded.
+    - ``pretrained``: Start weights of every run (a file, or `builtin-joint`…); with
+      ``epochs=0`` a run only indexes the pass with them.
+    - ``cell``: Run only this cell, ``"COUNT:RUN"``; the tables are not written.
+    - ``print_jobs``: Print one command per cell and the merge command, and stop.
+    - ``merge``: Run nothing: write the tables from the finished cells.
     - ``force``: Use an output folder that holds something else.
     """
     ...

@@ -859,3 +859,128 @@ fn the_benchmark_runs_colon_by_colon_and_merges() {
         "{err}"
     );
 }
+
+/// `experiment zones` as independent jobs: one command per (count, run) cell from
+/// `--print-jobs`, cells run alone into their own folders, a merge that names the unfinished
+/// ones, and a table equal to the one the whole sweep writes in one go.
+#[test]
+fn the_zone_sweep_runs_cell_by_cell_and_merges_to_the_whole_sweeps_table() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = s(&tmp.path().join("data"));
+    ok(&[
+        "simulate",
+        "--preset",
+        "small",
+        "--train-frames",
+        "120",
+        "--test-frames",
+        "30",
+        "--width",
+        "160",
+        "--height",
+        "120",
+        "--out",
+        &data,
+    ]);
+    let sweep = |out: &str, extra: &[&str]| -> Vec<String> {
+        let base = [
+            "experiment",
+            "zones",
+            "--data",
+            &data,
+            "--from",
+            "2",
+            "--to",
+            "4",
+            "--step",
+            "2",
+            "--runs",
+            "2",
+            "--epochs",
+            "1",
+            "--threshold",
+            "20",
+            "--out",
+            out,
+        ];
+        base.iter().chain(extra).map(|a| a.to_string()).collect()
+    };
+    let run = |out: &str, extra: &[&str]| -> String {
+        let a = sweep(out, extra);
+        ok(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let cells = s(&tmp.path().join("cells"));
+    let jobs = run(&cells, &["--print-jobs"]);
+    let lines: Vec<&str> = jobs.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 5, "{jobs}");
+    for (line, cell) in lines.iter().zip(["2:0", "2:1", "4:0", "4:1"]) {
+        assert!(
+            line.starts_with("endoloc experiment zones --data"),
+            "{line}"
+        );
+        assert!(line.ends_with(&format!("--cell {cell}")), "{line}");
+    }
+    assert!(
+        lines[4].starts_with('#') && lines[4].ends_with("--merge"),
+        "{jobs}"
+    );
+    assert!(!Path::new(&cells).exists(), "--print-jobs writes nothing");
+
+    let one = run(&cells, &["--cell", "4:1"]);
+    assert!(one.contains("4,1,1,30,"), "the cell's row: {one}");
+    let root = Path::new(&cells);
+    assert!(root.join("models/z004/run01/row.csv").is_file());
+    assert!(
+        !root.join("zones.md").exists(),
+        "a cell alone writes no table"
+    );
+    let merged = run(&cells, &["--merge"]);
+    assert!(
+        merged.contains("Not finished: 3 cell(s) (2:0, 2:1, 4:0)"),
+        "{merged}"
+    );
+    for cell in ["2:0", "2:1", "4:0"] {
+        run(&cells, &["--cell", cell]);
+    }
+    let merged = run(&cells, &["--merge"]);
+    assert!(!merged.contains("Not finished"), "{merged}");
+
+    let whole = s(&tmp.path().join("whole"));
+    run(&whole, &[]);
+    let without_seconds = |dir: &str| -> Vec<String> {
+        std::fs::read_to_string(Path::new(dir).join("results.csv"))
+            .unwrap()
+            .lines()
+            .map(|l| l.rsplit_once(',').unwrap().0.to_string())
+            .collect()
+    };
+    let table = without_seconds(&cells);
+    assert_eq!(table.len(), 5, "{table:?}");
+    assert_eq!(table, without_seconds(&whole), "cells vs the whole sweep");
+
+    let err = fails(
+        &sweep(&cells, &["--cell", "3:0"])
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    assert!(
+        err.contains("not a cell of this sweep") && err.contains("2, 4"),
+        "{err}"
+    );
+    let err = fails(&[
+        "experiment",
+        "zones",
+        "--data",
+        &data,
+        "--runs",
+        "2",
+        "--epochs",
+        "0",
+        "--pretrained",
+        "builtin-joint",
+        "--out",
+        &s(&tmp.path().join("indexed")),
+    ]);
+    assert!(err.contains("use --runs 1"), "{err}");
+}

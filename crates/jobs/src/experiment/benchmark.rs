@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::common::{self, DataArgs, MethodRow};
+use super::common::{self, DataArgs, MethodRow, shell_quote};
 use super::compare::{CompareJob, Method};
 use crate::bail;
 use crate::error::{Context, Result};
@@ -714,17 +714,6 @@ fn colon_table(rows: &[ColonRow]) -> String {
         }
     }
     s
-}
-
-fn shell_quote(s: &str) -> String {
-    if !s.is_empty()
-        && s.chars()
-            .all(|c| c.is_ascii_alphanumeric() || "-_./=,:+".contains(c))
-    {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', "'\\''"))
-    }
 }
 
 #[cfg(test)]

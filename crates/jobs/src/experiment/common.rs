@@ -93,6 +93,8 @@ pub(super) struct TrainSpec {
     pub epochs: Option<usize>,
     /// Training seed.
     pub seed: u64,
+    /// Start weights (`--pretrained` of `endoloc train`); `None`: random initialisation.
+    pub pretrained: Option<PathBuf>,
 }
 
 /// Trains a model into `dir` unless a finished one is already there (`model.toml` present).
@@ -114,6 +116,7 @@ pub(super) fn ensure_model(
         out: dir.to_path_buf(),
         seed: spec.seed,
         epochs: spec.epochs,
+        pretrained: spec.pretrained.clone(),
         // A half-written model folder from an interrupted run is resumed by the training.
         resume: dir.with_extension("partial").exists(),
         ..TrainJob::default()
@@ -429,10 +432,13 @@ pub struct ExperimentReport<R> {
 
 impl<R> std::fmt::Display for ExperimentReport<R> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        writeln!(f, "\n{}", self.table.trim_end())?;
+        write!(f, "\n{}", self.table.trim_end())?;
+        if self.files.is_empty() {
+            return Ok(());
+        }
         write!(
             f,
-            "wrote     {}/{}",
+            "\nwrote     {}/{}",
             self.out.display(),
             self.files.join(", ")
         )
@@ -676,6 +682,18 @@ pub(super) fn create_out(out: &Path, marker: &str) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     endoloc_data::write_atomic(&out.join(EXPERIMENT_TAG), format!("{marker}\n").as_bytes())?;
     Ok(())
+}
+
+/// `s` as one shell word: unchanged when it is plain, single-quoted otherwise.
+pub(super) fn shell_quote(s: &str) -> String {
+    if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=,:+".contains(c))
+    {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
 }
 
 /// Position error (mm) and orientation error (degrees, geodesic angle of `R_estᵀ R_gt`) of

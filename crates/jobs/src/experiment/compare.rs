@@ -204,6 +204,7 @@ impl CompareJob {
             zones: args.zones.clone(),
             epochs: args.epochs,
             seed: args.seed,
+            pretrained: None,
         };
         ensure_model(&model, &data, &spec, progress)?;
         ensure_map(&model, &data, args.threshold, &[], progress)?;

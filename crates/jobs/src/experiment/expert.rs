@@ -132,6 +132,7 @@ impl ExpertJob {
                     zones: zones.clone(),
                     epochs: args.epochs,
                     seed: args.seed,
+                    pretrained: None,
                 },
                 progress,
             )?;

@@ -114,6 +114,7 @@ impl PerturbJob {
                 zones: args.zones.clone(),
                 epochs: args.epochs,
                 seed: args.seed,
+                pretrained: None,
             },
             progress,
         )?;

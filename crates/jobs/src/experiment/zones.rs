@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::common::{
     self, Data, DataArgs, ExperimentReport, FeatureCache, TrainSpec, ZoneChoice, ensure_map,
-    ensure_model, pose_error, predict_zones, run_endoloc,
+    ensure_model, pose_error, predict_zones, run_endoloc, shell_quote,
 };
 use crate::note;
 use crate::progress::Progress;
@@ -42,6 +42,16 @@ pub struct ZoneSweepJob {
     pub candidate_zones: usize,
     /// Keep each run's model folder (weights, descriptors) instead of deleting it once the
     pub keep_models: bool,
+    /// Start weights of every run's zone network: a file, or `builtin`, `builtin-track`,
+    /// `builtin-joint` (the shipped networks). With `--epochs 0` a run only indexes the
+    /// training pass with them (no training: one run per count is enough).
+    pub pretrained: Option<PathBuf>,
+    /// Run only this cell of the grid, `COUNT:RUN` (e.g. `50:3`); the tables are not written.
+    pub cell: Option<String>,
+    /// Print one command per cell (for GNU parallel or a Slurm array) and stop.
+    pub print_jobs: bool,
+    /// Run nothing: write the tables from the cells already finished.
+    pub merge: bool,
     /// Use an output folder that holds something else.
     pub force: bool,
 }
@@ -59,6 +69,10 @@ impl Default for ZoneSweepJob {
             threshold: endoloc_localize::DEFAULT_MAP_THRESHOLD,
             candidate_zones: 3,
             keep_models: false,
+            pretrained: None,
+            cell: None,
+            print_jobs: false,
+            merge: false,
             force: false,
         }
     }
@@ -92,6 +106,10 @@ pub struct RunRow {
 }
 
 const RESULTS: &str = "results.csv";
+
+/// A finished run's own row, in its model folder (`models/zNNN/runRR/row.csv`, the format of
+/// `results.csv`): cells run as separate jobs never write one shared file.
+const ROW: &str = "row.csv";
 
 fn read_results(path: &Path) -> Result<Vec<RunRow>> {
     if !path.is_file() {
@@ -163,10 +181,83 @@ fn format_results(rows: &[RunRow]) -> String {
 }
 
 impl ZoneSweepJob {
-    /// Runs the experiment.
+    /// The zone counts of the sweep.
+    fn counts(&self) -> Vec<usize> {
+        (self.from..=self.to).step_by(self.step.max(1)).collect()
+    }
+
+    /// Every cell `(count, run)` of the grid, counts first.
+    fn grid(&self) -> Vec<(usize, usize)> {
+        self.counts()
+            .into_iter()
+            .flat_map(|n| (0..self.runs).map(move |r| (n, r)))
+            .collect()
+    }
+
+    /// The folder of one run (its model, map and `row.csv`).
+    fn run_dir(&self, zones: usize, run: usize) -> PathBuf {
+        self.out.join(format!("models/z{zones:03}/run{run:02}"))
+    }
+
+    /// The command line that runs one cell (or, with `None`, merges the finished ones).
+    pub fn command(&self, cell: Option<(usize, usize)>) -> String {
+        let q = |p: &Path| shell_quote(&p.display().to_string());
+        let mut c = format!(
+            "endoloc experiment zones --data {} --train {} --test {} --out {} --from {} --to {} \
+             --step {} --runs {} --epochs {} --threshold {} --candidate-zones {}",
+            q(&self.data.data),
+            shell_quote(&self.data.train),
+            shell_quote(&self.data.test),
+            q(&self.out),
+            self.from,
+            self.to,
+            self.step,
+            self.runs,
+            self.epochs,
+            self.threshold,
+            self.candidate_zones
+        );
+        if let Some(p) = &self.pretrained {
+            c.push_str(&format!(" --pretrained {}", q(p)));
+        }
+        if self.keep_models {
+            c.push_str(" --keep-models");
+        }
+        match cell {
+            Some((n, r)) => c.push_str(&format!(" --cell {n}:{r}")),
+            None => c.push_str(" --merge"),
+        }
+        c
+    }
+
+    /// The cell named by [`ZoneSweepJob::cell`], checked against the grid.
+    fn selected_cell(&self, text: &str) -> Result<(usize, usize)> {
+        let parsed = text
+            .split_once(':')
+            .and_then(|(n, r)| Some((n.trim().parse().ok()?, r.trim().parse().ok()?)));
+        let Some(cell) = parsed else {
+            bail!("--cell {text:?}: expected COUNT:RUN, e.g. 50:3");
+        };
+        if !self.grid().contains(&cell) {
+            bail!(
+                "--cell {text}: not a cell of this sweep; expected a count of {} and a run \
+                 below {}",
+                self.counts()
+                    .iter()
+                    .map(usize::to_string)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                self.runs
+            );
+        }
+        Ok(cell)
+    }
+
+    /// Runs the experiment (or one cell of it, or only the merge).
     ///
     /// # Errors
-    /// Bad inputs, a failed stage, or an output folder that holds something else.
+    /// Bad inputs, a failed stage, an unknown cell, or an output folder that holds something
+    /// else.
     pub fn run(&self, progress: &dyn Progress) -> Result<ExperimentReport<RunRow>> {
         let args = self;
         if args.step == 0 || args.from == 0 || args.from > args.to || args.runs == 0 {
@@ -178,110 +269,180 @@ impl ZoneSweepJob {
                 args.runs
             );
         }
+        if args.epochs == 0 && args.pretrained.is_none() {
+            bail!("--epochs 0 needs --pretrained (start weights to index the pass with)");
+        }
+        if args.epochs == 0 && args.runs > 1 {
+            bail!(
+                "--epochs 0 --runs {}: without training every run indexes the pass with the same \
+                 weights and gives the same figures; use --runs 1",
+                args.runs
+            );
+        }
+        let grid = args.grid();
+        if args.print_jobs {
+            let mut jobs: Vec<String> = grid.iter().map(|&c| args.command(Some(c))).collect();
+            jobs.push(format!("# when every cell is done: {}", args.command(None)));
+            return Ok(ExperimentReport {
+                rows: Vec::new(),
+                table: jobs.join("\n"),
+                out: args.out.clone(),
+                files: Vec::new(),
+            });
+        }
+        let selected: Vec<(usize, usize)> = match &args.cell {
+            Some(text) => vec![args.selected_cell(text)?],
+            None if args.merge => Vec::new(),
+            None => grid.clone(),
+        };
         common::prepare_out(&args.out, RESULTS, args.force)?;
         let data = Data::from_args(&args.data)?;
         common::create_out(&args.out, RESULTS)?;
         let results_path = args.out.join(RESULTS);
         let mut rows = read_results(&results_path)?;
-        let counts: Vec<usize> = (args.from..=args.to).step_by(args.step).collect();
-        let total = counts.len() * args.runs;
+        for &(n, r) in &grid {
+            if rows.iter().any(|x| (x.zones, x.run) == (n, r)) {
+                continue;
+            }
+            rows.extend(read_results(&args.run_dir(n, r).join(ROW))?);
+        }
+        rows.sort_by_key(|x| (x.zones, x.run));
+        let todo: Vec<(usize, usize)> = selected
+            .iter()
+            .copied()
+            .filter(|&(n, r)| !rows.iter().any(|x| (x.zones, x.run) == (n, r)))
+            .collect();
         let mut features: Option<FeatureCache> = None;
         let t_start = Instant::now();
-        let mut done_here = 0usize;
-        for &n in &counts {
-            let run_dirs: Vec<PathBuf> = (0..args.runs)
-                .map(|r| args.out.join(format!("models/z{n:03}/run{r:02}")))
-                .collect();
-            for (r, dir) in run_dirs.iter().enumerate() {
-                if rows.iter().any(|x| x.zones == n && x.run == r) {
-                    continue;
-                }
-                let finished = rows.len();
-                note!(
-                    progress,
-                    "\n=== run {}/{}: {n} zones, seed {r}{}",
-                    finished + 1,
-                    total,
-                    eta(t_start, done_here, total - finished)
-                );
-                let t = Instant::now();
-                let spec = TrainSpec {
-                    zones: n.to_string(),
-                    epochs: Some(args.epochs),
-                    seed: r as u64,
-                };
-                ensure_model(dir, &data, &spec, progress)?;
-                ensure_map(dir, &data, args.threshold, &run_dirs, progress)?;
-                let classifier = ZoneClassifier::load(dir)?;
-                let map_surf = endoloc_localize::map_io::load_map(dir)?.config.surf.clone();
-                let cache = FeatureCache::get(&mut features, &data.test, &map_surf, progress)?;
-                let (preds, zone_ms) = predict_zones(&classifier, &data.test, progress)?;
-                drop(classifier);
-                let results = run_endoloc(
-                    dir,
-                    cache,
-                    &preds,
-                    zone_ms,
-                    ZoneChoice::PerFrame,
-                    args.candidate_zones,
-                    progress,
-                )?;
-                let mut pos = Vec::new();
-                let mut rot = Vec::new();
-                for (i, res) in results.iter().enumerate() {
-                    if let Some(p) = res.t_wc {
-                        let (dp, dr) = pose_error(&p, &data.test.poses[i].pose);
-                        pos.push(dp);
-                        rot.push(dr);
-                    }
-                }
-                let stats = |v: &mut Vec<f64>| -> (f64, f64) {
-                    if v.is_empty() {
-                        return (f64::NAN, f64::NAN);
-                    }
-                    v.sort_by(f64::total_cmp);
-                    (v.iter().sum::<f64>() / v.len() as f64, v[v.len() / 2])
-                };
-                let (mp, dp) = stats(&mut pos);
-                let (mr, dr) = stats(&mut rot);
-                let row = RunRow {
-                    zones: n,
-                    run: r,
-                    seed: r as u64,
-                    frames: results.len(),
-                    refined: results
-                        .iter()
-                        .filter(|x| x.status == Status::Refined)
-                        .count(),
-                    localized: pos.len(),
-                    mean_position_mm: mp,
-                    median_position_mm: dp,
-                    mean_orientation_deg: mr,
-                    median_orientation_deg: dr,
-                    seconds: t.elapsed().as_secs_f64(),
-                };
-                note!(
-                    progress,
-                    "zones {n:>3} run {r:>2}: mean {mp:.2} mm / {mr:.2}°, median {dp:.2} mm / {dr:.2}°, refined {:.1} %, {:.0} s",
-                    100.0 * row.refined as f64 / row.frames.max(1) as f64,
-                    row.seconds
-                );
-                rows.push(row);
-                rows.sort_by_key(|x| (x.zones, x.run));
+        for (k, &(n, r)) in todo.iter().enumerate() {
+            note!(
+                progress,
+                "\n=== run {}/{}: {n} zones, seed {r}{}",
+                k + 1,
+                todo.len(),
+                eta(t_start, k, todo.len() - k)
+            );
+            let row = args.run_cell(&data, n, r, &mut features, progress)?;
+            rows.push(row);
+            rows.sort_by_key(|x| (x.zones, x.run));
+            if args.cell.is_none() {
                 common::write_text(&results_path, &format_results(&rows))?;
-                done_here += 1;
-                if !args.keep_models {
-                    prune_model(dir)?;
-                }
             }
         }
-        let table = write_outputs(args, &rows, progress)?;
+        if args.cell.is_some() {
+            let done: Vec<RunRow> = rows
+                .into_iter()
+                .filter(|x| selected.contains(&(x.zones, x.run)))
+                .collect();
+            return Ok(ExperimentReport {
+                table: format_results(&done),
+                rows: done,
+                out: args.out.clone(),
+                files: vec![],
+            });
+        }
+        rows.retain(|x| grid.contains(&(x.zones, x.run)));
+        if rows.is_empty() {
+            bail!(
+                "no cell of {} is finished; run the cells first (see --print-jobs)",
+                args.out.display()
+            );
+        }
+        common::write_text(&results_path, &format_results(&rows))?;
+        let missing: Vec<String> = grid
+            .iter()
+            .filter(|&&(n, r)| !rows.iter().any(|x| (x.zones, x.run) == (n, r)))
+            .map(|(n, r)| format!("{n}:{r}"))
+            .collect();
+        let table = write_outputs(args, &rows, &missing, progress)?;
         Ok(ExperimentReport {
             rows,
             table,
             out: args.out.clone(),
             files: vec!["results.csv", "zones.md", "zones.png", "report.html"],
         })
+    }
+
+    /// Trains (or indexes), maps and localizes one cell; writes its `row.csv`.
+    fn run_cell(
+        &self,
+        data: &Data,
+        n: usize,
+        r: usize,
+        features: &mut Option<FeatureCache>,
+        progress: &dyn Progress,
+    ) -> Result<RunRow> {
+        let args = self;
+        let run_dirs: Vec<PathBuf> = (0..args.runs).map(|k| args.run_dir(n, k)).collect();
+        let dir = &run_dirs[r];
+        let t = Instant::now();
+        let spec = TrainSpec {
+            zones: n.to_string(),
+            epochs: Some(args.epochs),
+            seed: r as u64,
+            pretrained: args.pretrained.clone(),
+        };
+        ensure_model(dir, data, &spec, progress)?;
+        ensure_map(dir, data, args.threshold, &run_dirs, progress)?;
+        let classifier = ZoneClassifier::load(dir)?;
+        let map_surf = endoloc_localize::map_io::load_map(dir)?.config.surf.clone();
+        let cache = FeatureCache::get(features, &data.test, &map_surf, progress)?;
+        let (preds, zone_ms) = predict_zones(&classifier, &data.test, progress)?;
+        drop(classifier);
+        let results = run_endoloc(
+            dir,
+            cache,
+            &preds,
+            zone_ms,
+            ZoneChoice::PerFrame,
+            args.candidate_zones,
+            progress,
+        )?;
+        let mut pos = Vec::new();
+        let mut rot = Vec::new();
+        for (i, res) in results.iter().enumerate() {
+            if let Some(p) = res.t_wc {
+                let (dp, dr) = pose_error(&p, &data.test.poses[i].pose);
+                pos.push(dp);
+                rot.push(dr);
+            }
+        }
+        let stats = |v: &mut Vec<f64>| -> (f64, f64) {
+            if v.is_empty() {
+                return (f64::NAN, f64::NAN);
+            }
+            v.sort_by(f64::total_cmp);
+            (v.iter().sum::<f64>() / v.len() as f64, v[v.len() / 2])
+        };
+        let (mp, dp) = stats(&mut pos);
+        let (mr, dr) = stats(&mut rot);
+        let row = RunRow {
+            zones: n,
+            run: r,
+            seed: r as u64,
+            frames: results.len(),
+            refined: results
+                .iter()
+                .filter(|x| x.status == Status::Refined)
+                .count(),
+            localized: pos.len(),
+            mean_position_mm: mp,
+            median_position_mm: dp,
+            mean_orientation_deg: mr,
+            median_orientation_deg: dr,
+            seconds: t.elapsed().as_secs_f64(),
+        };
+        note!(
+            progress,
+            "zones {n:>3} run {r:>2}: mean {mp:.2} mm / {mr:.2}°, median {dp:.2} mm / {dr:.2}°, refined {:.1} %, {:.0} s",
+            100.0 * row.refined as f64 / row.frames.max(1) as f64,
+            row.seconds
+        );
+        common::write_text(&dir.join(ROW), &format_results(std::slice::from_ref(&row)))?;
+        if !args.keep_models {
+            prune_model(dir)?;
+        }
+        Ok(row)
     }
 }
 
@@ -314,7 +475,12 @@ fn eta(start: Instant, done: usize, left: usize) -> String {
     format!(" (about {:.0} min left)", s / 60.0)
 }
 
-fn write_outputs(args: &ZoneSweepJob, rows: &[RunRow], progress: &dyn Progress) -> Result<String> {
+fn write_outputs(
+    args: &ZoneSweepJob,
+    rows: &[RunRow],
+    missing: &[String],
+    progress: &dyn Progress,
+) -> Result<String> {
     let mut by_count: BTreeMap<usize, Vec<&RunRow>> = BTreeMap::new();
     for r in rows {
         by_count.entry(r.zones).or_default().push(r);
@@ -380,12 +546,19 @@ fn write_outputs(args: &ZoneSweepJob, rows: &[RunRow], progress: &dyn Progress) 
         .map(|(&n, rs)| (n, med(rs.iter().map(|r| r.mean_position_mm).collect())))
         .filter(|x| x.1.is_finite())
         .min_by(|a, b| a.1.total_cmp(&b.1));
+    let training = match (&args.pretrained, args.epochs) {
+        (Some(p), 0) => format!(
+            "the pass indexed with the start weights `{}` (no training)",
+            p.display()
+        ),
+        (Some(p), e) => format!("{e} epochs of training from `{}`", p.display()),
+        (None, e) => format!("{e} epochs of training from random weights"),
+    };
     let mut md = format!(
-        "# Zone-count sweep (the paper's Fig. 4)\n\nDataset `{}`, {} runs per count, {} epochs \
-         per training, {} candidate zone(s). Each box: the mean errors of the runs.\n\n| {} |\n|{}\n",
+        "# Zone-count sweep (the paper's Fig. 4)\n\nDataset `{}`, {} run(s) per count, {training}, \
+         {} candidate zone(s). Each box: the mean errors of the runs.\n\n| {} |\n|{}\n",
         args.data.data.display(),
         args.runs,
-        args.epochs,
         args.candidate_zones,
         header.join(" | "),
         "---|".repeat(header.len())
@@ -398,16 +571,26 @@ fn write_outputs(args: &ZoneSweepJob, rows: &[RunRow], progress: &dyn Progress) 
             "\nBest zone count: {n} (median of run means {e:.2} mm).\n"
         ));
     }
+    if !missing.is_empty() {
+        md.push_str(&format!(
+            "\nNot finished: {} cell(s) ({}).\n",
+            missing.len(),
+            missing.join(", ")
+        ));
+    }
     md.push_str("\n![errors against the zone count](zones.png)\n");
+    md.push_str(&format!(
+        "\nReproduce: `{}`\n",
+        args.command(None).replace(" --merge", "")
+    ));
     common::write_text(&args.out.join("zones.md"), &md)?;
     let mut html = HtmlReport::new("endoloc — zone-count sweep");
     html.push(endoloc_eval::Block::Paragraph(format!(
-        "Dataset {}, {} runs per count (training seeds 0…{}), {} epochs per training, {} \
-         candidate zone(s). Each box shows the runs' mean errors.",
+        "Dataset {}, {} run(s) per count (training seeds 0…{}), {training}, {} candidate \
+         zone(s). Each box shows the runs' mean errors.",
         args.data.data.display(),
         args.runs,
         args.runs - 1,
-        args.epochs,
         args.candidate_zones
     )))
     .push(endoloc_eval::Block::Table {
@@ -427,7 +610,14 @@ fn write_outputs(args: &ZoneSweepJob, rows: &[RunRow], progress: &dyn Progress) 
         html.push(b);
     }
     common::write_text(&args.out.join("report.html"), &html.render())?;
-    Ok(md.lines().skip(4).collect::<Vec<_>>().join("\n"))
+    Ok(md
+        .lines()
+        .skip(4)
+        .take_while(|l| !l.starts_with("!["))
+        .collect::<Vec<_>>()
+        .join("\n")
+        .trim_end()
+        .to_string())
 }
 
 #[cfg(test)]

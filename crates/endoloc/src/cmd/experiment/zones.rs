@@ -14,12 +14,18 @@ use endoloc_jobs::experiment::*;
 /// zone table, not on the seed: each count maps once, and the test frames' SURF features are
 /// extracted once for the whole sweep.
 ///
+/// Every (count, run) cell is an independent job with its own folder
+/// (OUT/models/zNNN/runRR/row.csv): --print-jobs prints one command per cell for GNU
+/// parallel or a Slurm job array, and --merge writes the tables from the finished cells.
+///
 /// Time: each run is one training (`--epochs`, the dominant cost) plus about a minute of
 /// look-up and localization; docs/RESULTS.md gives the measured wall time of the defaults.
 ///
-/// Example:
+/// Examples:
 ///
 ///   endoloc experiment zones --data data/paper --from 10 --to 170 --step 10 --runs 10
+///   endoloc experiment zones --data data/paper --pretrained builtin-joint --epochs 0 --runs 1
+///   endoloc experiment zones --data data/paper --print-jobs | grep -v '^#' | parallel -j 2
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -54,6 +60,22 @@ pub struct Args {
     /// run is recorded (its map is kept for the next runs either way).
     #[arg(long)]
     keep_models: bool,
+    /// Start weights of every run's zone network: a file, or `builtin`, `builtin-track`,
+    /// `builtin-joint` (the shipped networks). With --epochs 0 a run only indexes the training
+    /// pass with them (the shipped network without training; one run per count).
+    #[arg(long)]
+    pretrained: Option<PathBuf>,
+    /// Run only this cell of the grid, COUNT:RUN (e.g. 50:3), as printed by --print-jobs;
+    /// the tables are not written.
+    #[arg(long, value_name = "COUNT:RUN", conflicts_with_all = ["print_jobs", "merge"])]
+    cell: Option<String>,
+    /// Print one command per cell (for GNU parallel or a Slurm job array) and the merge
+    /// command, and stop.
+    #[arg(long, conflicts_with = "merge")]
+    print_jobs: bool,
+    /// Run nothing: write the tables from the cells already finished (and list the others).
+    #[arg(long)]
+    merge: bool,
     /// Use an output folder that holds something else.
     #[arg(long)]
     force: bool,
@@ -72,6 +94,10 @@ impl From<Args> for ZoneSweepJob {
             threshold: a.threshold,
             candidate_zones: a.candidate_zones,
             keep_models: a.keep_models,
+            pretrained: a.pretrained,
+            cell: a.cell,
+            print_jobs: a.print_jobs,
+            merge: a.merge,
             force: a.force,
         }
     }
