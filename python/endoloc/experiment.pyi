@@ -13,6 +13,7 @@ def benchmark(
     out: StrPath = ...,
     preset: str = ...,
     seeds: Seq[int] = ...,
+    dev_seeds: Seq[int] = ...,
     gca: Seq[StrPath] = ...,
     inflation: float | None = ...,
     train_frames: int | None = ...,
@@ -35,6 +36,8 @@ def benchmark(
     - ``out``: Output folder.
     - ``preset``: Simulator preset of every colon.
     - ``seeds``: Procedural colons: simulator seeds (default 1 to 8).
+    - ``dev_seeds``: Development colons (settings were chosen on them): reported as their
+      own rows, left out of the mean ± interval.
     - ``gca``: CT colons: GCA model folders.
     - ``inflation``: Lumen inflation of the CT colons.
     - ``train_frames``: Frames of each training pass (default: the preset's).
@@ -45,7 +48,7 @@ def benchmark(
     - ``epochs``: Training epochs (default: 0 with ``pretrained``, else the schedule's own).
     - ``seed``: Seed of every training.
     - ``methods``: Methods (default: endoloc-paper, endoloc, endoloc-live, classify).
-    - ``colon``: Run only this colon (`seed-N` or `ct-<folder>`).
+    - ``colon``: Run only this colon (`seed-N`, `dev-seed-N` or `ct-<folder>`).
     - ``print_jobs``: Print one command per colon and the merge command, and stop.
     - ``merge``: Run nothing: write the tables from the finished colons.
     - ``force``: Use an output folder that holds something else.

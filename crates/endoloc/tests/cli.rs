@@ -787,6 +787,8 @@ fn the_benchmark_runs_colon_by_colon_and_merges() {
         "small",
         "--seeds",
         "1-2",
+        "--dev-seeds",
+        "3",
         "--train-frames",
         "60",
         "--test-frames",
@@ -807,10 +809,11 @@ fn the_benchmark_runs_colon_by_colon_and_merges() {
     };
     let jobs = run(&["--print-jobs"]);
     let lines: Vec<&str> = jobs.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 3, "{jobs}");
+    assert_eq!(lines.len(), 4, "{jobs}");
     assert!(lines[0].ends_with("--colon seed-1") && lines[1].ends_with("--colon seed-2"));
+    assert!(lines[2].ends_with("--colon dev-seed-3"), "{jobs}");
     assert!(
-        lines[2].starts_with('#') && lines[2].ends_with("--merge"),
+        lines[3].starts_with('#') && lines[3].ends_with("--merge"),
         "{jobs}"
     );
     assert!(!Path::new(&out).exists(), "--print-jobs writes nothing");
@@ -820,17 +823,29 @@ fn the_benchmark_runs_colon_by_colon_and_merges() {
     assert!(bench.join("colons/seed-1/row.json").is_file());
     assert!(!bench.join("benchmark.md").exists());
     let merged = run(&["--merge"]);
-    assert!(merged.contains("not finished: seed-2"), "{merged}");
+    assert!(
+        merged.contains("not finished: seed-2, dev-seed-3"),
+        "{merged}"
+    );
     let md = std::fs::read_to_string(bench.join("benchmark.md")).unwrap();
-    assert!(md.contains("Not finished: seed-2"), "{md}");
+    assert!(md.contains("Not finished: seed-2, dev-seed-3"), "{md}");
 
     let all = run(&[]);
     assert!(all.contains("reusing   seed-1"), "{all}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(bench.join("benchmark.json")).unwrap())
             .unwrap();
-    assert_eq!(json["colons"].as_array().unwrap().len(), 2);
+    assert_eq!(json["colons"].as_array().unwrap().len(), 3);
     assert!(json["missing"].as_array().unwrap().is_empty());
+    // The development colon is reported on its own, outside the mean ± interval.
+    assert_eq!(json["colons"][2]["colon"], "dev-seed-3");
+    assert_eq!(json["colons"][2]["development"], true);
+    let md = std::fs::read_to_string(bench.join("benchmark.md")).unwrap();
+    assert!(
+        md.starts_with("# Benchmark across colons\n\n2 colons (seed-1, seed-2)"),
+        "{md}"
+    );
+    assert!(md.contains("Development colon (settings") && md.contains("| dev-seed-3 |"));
     let live = &json["summary"][0];
     assert_eq!(live["method"], "endoloc-live");
     let pos = &live["median_position_mm"];
@@ -839,6 +854,7 @@ fn the_benchmark_runs_colon_by_colon_and_merges() {
         .as_array()
         .unwrap()
         .iter()
+        .take(2)
         .map(|c| c["methods"][0]["median_position_mm"].as_f64().unwrap())
         .collect();
     let mean = pos["mean"].as_f64().unwrap();
@@ -855,7 +871,7 @@ fn the_benchmark_runs_colon_by_colon_and_merges() {
             .collect::<Vec<_>>(),
     );
     assert!(
-        err.contains("not a colon of this benchmark") && err.contains("seed-1, seed-2"),
+        err.contains("not a colon of this benchmark") && err.contains("seed-1, seed-2, dev-seed-3"),
         "{err}"
     );
 }

@@ -30,6 +30,10 @@ pub struct BenchmarkJob {
     pub preset: String,
     /// Procedural colons: one per simulator seed.
     pub seeds: Vec<u64>,
+    /// Development colons: simulator seeds on which endoloc's settings were chosen (the
+    /// `paper` preset's seed 0). Run like the others and reported as their own rows, but left
+    /// out of the mean ± interval, which speaks for colons nothing was tuned on.
+    pub dev_seeds: Vec<u64>,
     /// CT colons: GCA model folders (`endoloc simulate --gca`).
     pub gca: Vec<PathBuf>,
     /// Lumen inflation of the CT colons (`endoloc simulate --inflation`).
@@ -65,6 +69,7 @@ impl Default for BenchmarkJob {
             out: "experiments/benchmark".into(),
             preset: "paper".into(),
             seeds: (1..=8).collect(),
+            dev_seeds: Vec::new(),
             gca: Vec::new(),
             inflation: None,
             train_frames: None,
@@ -85,10 +90,11 @@ impl Default for BenchmarkJob {
 /// One colon of the benchmark.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Colon {
-    /// Folder name: `seed-N` or `ct-<model folder>`.
+    /// Folder name: `seed-N`, `dev-seed-N` or `ct-<model folder>`.
     pub name: String,
     seed: u64,
     gca: Option<PathBuf>,
+    development: bool,
 }
 
 /// One colon's figures: every method's row.
@@ -98,6 +104,9 @@ pub struct ColonRow {
     pub colon: String,
     /// What it is (`procedural, seed 3`, `CT colon EdinGCA_…`).
     pub kind: String,
+    /// A development colon (settings were chosen on it): reported, not in the summary.
+    #[serde(default)]
+    pub development: bool,
     /// One row per method.
     pub methods: Vec<MethodRow>,
 }
@@ -244,7 +253,7 @@ const DEFAULT_METHODS: [Method; 4] = [
 ];
 
 impl BenchmarkJob {
-    /// Every colon of the benchmark, in order: seeds, then CT colons.
+    /// Every colon of the benchmark, in order: seeds, CT colons, then development seeds.
     pub fn colons(&self) -> Vec<Colon> {
         let mut v: Vec<Colon> = self
             .seeds
@@ -253,6 +262,7 @@ impl BenchmarkJob {
                 name: format!("seed-{s}"),
                 seed: s,
                 gca: None,
+                development: false,
             })
             .collect();
         for g in &self.gca {
@@ -264,8 +274,15 @@ impl BenchmarkJob {
                 name: format!("ct-{stem}"),
                 seed: 0,
                 gca: Some(g.clone()),
+                development: false,
             });
         }
+        v.extend(self.dev_seeds.iter().map(|&s| Colon {
+            name: format!("dev-seed-{s}"),
+            seed: s,
+            gca: None,
+            development: true,
+        }));
         v
     }
 
@@ -292,6 +309,10 @@ impl BenchmarkJob {
         } else {
             let s: Vec<String> = self.seeds.iter().map(u64::to_string).collect();
             c.push_str(&format!(" --seeds {}", s.join(",")));
+        }
+        if !self.dev_seeds.is_empty() {
+            let s: Vec<String> = self.dev_seeds.iter().map(u64::to_string).collect();
+            c.push_str(&format!(" --dev-seeds {}", s.join(",")));
         }
         for g in &self.gca {
             c.push_str(&format!(" --gca {}", q(g)));
@@ -329,6 +350,12 @@ impl BenchmarkJob {
         let colons = self.colons();
         if colons.is_empty() {
             bail!("no colons: give --seeds and/or --gca");
+        }
+        if let Some(s) = self.dev_seeds.iter().find(|s| self.seeds.contains(s)) {
+            bail!(
+                "seed {s} is in both --seeds and --dev-seeds; a development colon cannot also \
+                 speak for unseen ones"
+            );
         }
         if self.print_jobs {
             let mut jobs: Vec<String> =
@@ -397,7 +424,8 @@ impl BenchmarkJob {
                 self.out.display()
             );
         }
-        let summary = summarise(&rows, &self.methods());
+        let unseen: Vec<ColonRow> = rows.iter().filter(|r| !r.development).cloned().collect();
+        let summary = summarise(&unseen, &self.methods());
         let table = self.write_outputs(&rows, &summary, &missing, progress)?;
         Ok(BenchmarkReport {
             colons: rows,
@@ -471,11 +499,16 @@ impl BenchmarkJob {
         let report = compare.run(progress)?;
         let kind = match &c.gca {
             Some(g) => format!("CT colon {}", g.display()),
+            None if c.development => format!(
+                "development colon: procedural, `{}` preset, seed {} (settings were chosen on it)",
+                self.preset, c.seed
+            ),
             None => format!("procedural, `{}` preset, seed {}", self.preset, c.seed),
         };
         let row = ColonRow {
             colon: c.name.clone(),
             kind,
+            development: c.development,
             methods: report.rows,
         };
         common::write_text(
@@ -509,14 +542,18 @@ impl BenchmarkJob {
         missing: &[String],
         progress: &dyn Progress,
     ) -> Result<String> {
+        let (dev, unseen): (Vec<&ColonRow>, Vec<&ColonRow>) =
+            rows.iter().partition(|r| r.development);
+        let unseen: Vec<ColonRow> = unseen.into_iter().cloned().collect();
         let table = summary_table(summary);
         let mut md = String::from("# Benchmark across colons\n\n");
         md.push_str(&format!(
             "{} colons ({}), `{}` preset{}, {} zones, zone network {}. Each figure is the mean over \
              the colons ± the half-width of its 95 % confidence interval (Student's t); errors are \
              over the frames each method localizes.\n\n",
-            rows.len(),
-            rows.iter()
+            unseen.len(),
+            unseen
+                .iter()
                 .map(|r| r.colon.as_str())
                 .collect::<Vec<_>>()
                 .join(", "),
@@ -530,6 +567,15 @@ impl BenchmarkJob {
             }
         ));
         md.push_str(&table);
+        if !dev.is_empty() {
+            md.push_str(&format!(
+                "\nDevelopment colon{} (settings were chosen on {}; not in the figures above):\n\n",
+                if dev.len() > 1 { "s" } else { "" },
+                if dev.len() > 1 { "them" } else { "it" }
+            ));
+            let dev: Vec<ColonRow> = dev.iter().map(|r| (*r).clone()).collect();
+            md.push_str(&colon_table(&dev));
+        }
         if !missing.is_empty() {
             md.push_str(&format!("\nNot finished: {}.\n", missing.join(", ")));
         }
@@ -564,8 +610,8 @@ impl BenchmarkJob {
                 let name = m.name();
                 BoxColumn {
                     x: (k + 1) as f64,
-                    position_mm: per_colon(rows, &name, &|r| r.mean_position_mm),
-                    orientation_deg: per_colon(rows, &name, &|r| r.mean_orientation_deg),
+                    position_mm: per_colon(&unseen, &name, &|r| r.mean_position_mm),
+                    orientation_deg: per_colon(&unseen, &name, &|r| r.mean_orientation_deg),
                 }
             })
             .collect();
@@ -582,8 +628,20 @@ impl BenchmarkJob {
         )?;
         let mut html = HtmlReport::new("endoloc — benchmark across colons");
         html.push(endoloc_eval::Block::Paragraph(format!(
-            "{} colons; mean ± 95 % confidence half-width across colons.",
-            rows.len()
+            "{} colons; mean ± 95 % confidence half-width across colons{}.",
+            unseen.len(),
+            if dev.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " (development colon{} {} not included)",
+                    if dev.len() > 1 { "s" } else { "" },
+                    dev.iter()
+                        .map(|r| r.colon.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
         )))
         .push(endoloc_eval::Block::Table {
             header: SUMMARY_HEADER.iter().map(|s| s.to_string()).collect(),
@@ -737,19 +795,24 @@ mod tests {
         let job = BenchmarkJob {
             out: "exp/bench mark".into(),
             seeds: vec![1, 2],
+            dev_seeds: vec![0],
             gca: vec!["../shared/data/gca-edin-00090".into()],
             inflation: Some(1.5),
             test_frames: Some(650),
             ..Default::default()
         };
         let names: Vec<String> = job.colons().into_iter().map(|c| c.name).collect();
-        assert_eq!(names, ["seed-1", "seed-2", "ct-gca-edin-00090"]);
+        assert_eq!(
+            names,
+            ["seed-1", "seed-2", "ct-gca-edin-00090", "dev-seed-0"]
+        );
         let c = job.command(Some("seed-2"));
         assert!(
             c.starts_with("endoloc experiment benchmark --out 'exp/bench mark'"),
             "{c}"
         );
-        assert!(c.contains("--seeds 1,2") && c.contains("--gca ../shared/data/gca-edin-00090"));
+        assert!(c.contains("--seeds 1,2 --dev-seeds 0"), "{c}");
+        assert!(c.contains("--gca ../shared/data/gca-edin-00090"));
         assert!(c.contains("--inflation 1.5 --test-frames 650") && c.ends_with("--colon seed-2"));
         assert!(job.command(None).ends_with("--merge"));
     }

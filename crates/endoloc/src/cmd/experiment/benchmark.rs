@@ -32,6 +32,10 @@ pub struct Args {
     /// Procedural colons: simulator seeds, e.g. 1-8, 1,3,5 or none.
     #[arg(long, default_value = "1-8", value_parser = parse_seeds_arg)]
     seeds: SeedList,
+    /// Development colons: seeds on which settings were chosen (the `paper` preset's is 0).
+    /// Run and reported as their own rows, left out of the mean ± interval.
+    #[arg(long, default_value = "none", value_parser = parse_seeds_arg)]
+    dev_seeds: SeedList,
     /// A CT colon: GCA model folder (repeat for several).
     #[arg(long, value_name = "DIR")]
     gca: Vec<PathBuf>,
@@ -62,7 +66,8 @@ pub struct Args {
     /// compare`).
     #[arg(long, value_delimiter = ',')]
     methods: Vec<CompareMethod>,
-    /// Run only this colon (`seed-N` or `ct-<folder>`); the tables are not written.
+    /// Run only this colon (`seed-N`, `dev-seed-N` or `ct-<folder>`); the tables are not
+    /// written.
     #[arg(long)]
     colon: Option<String>,
     /// Print one command per colon and the merge command, and stop.
@@ -90,6 +95,7 @@ impl From<Args> for BenchmarkJob {
             out: a.out,
             preset: a.preset,
             seeds: a.seeds.0,
+            dev_seeds: a.dev_seeds.0,
             gca: a.gca,
             inflation: a.inflation,
             train_frames: a.train_frames,
