@@ -184,6 +184,7 @@ def map(
     images_per_zone: int = ...,
     threshold: float = ...,
     delta_r: float = ...,
+    observation_radius: float = ...,
     force: bool = ...,
     progress: ProgressArg = None,
 ) -> Report:
@@ -197,6 +198,9 @@ def map(
     - ``images_per_zone``: Images per zone (the paper's `m ≥ 3`).
     - ``threshold``: SURF threshold of the map (units of MATLAB's `MetricThreshold`).
     - ``delta_r``: δr: map points reprojecting farther than this are dropped, pixels.
+    - ``observation_radius``: Every other training frame of a zone adds its observations
+      of the zone's points (matched by projection within this many pixels) before they are
+      triangulated again; 0 = only the ``images_per_zone`` images.
     - ``force``: Replace an existing map.
     """
     ...

@@ -33,6 +33,10 @@ pub struct MapJob {
     pub threshold: f32,
     /// δr: map points reprojecting farther than this are dropped, pixels.
     pub delta_r_px: f64,
+    /// Every other training frame of a zone adds its observations of the zone's points
+    /// (matched by projection within this many pixels) before they are triangulated again;
+    /// 0 = only the `images_per_zone` images.
+    pub observation_radius_px: f64,
     /// Replace an existing map.
     pub force: bool,
 }
@@ -47,6 +51,7 @@ impl Default for MapJob {
             images_per_zone: cfg.images_per_zone,
             threshold: cfg.surf.threshold,
             delta_r_px: cfg.triangulation.delta_r_px,
+            observation_radius_px: cfg.observation_radius_px,
             force: false,
         }
     }
@@ -68,6 +73,7 @@ impl MapJob {
     pub fn map_config(&self) -> MapConfig {
         let mut cfg = MapConfig {
             images_per_zone: self.images_per_zone,
+            observation_radius_px: self.observation_radius_px,
             ..MapConfig::default()
         };
         cfg.surf.threshold = self.threshold;

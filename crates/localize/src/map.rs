@@ -24,6 +24,9 @@ use crate::LocalizeError;
 /// 25 → 962 and 95.4 %), so 25 is the default. Test frames use twice it, retried at it.
 pub const DEFAULT_MAP_THRESHOLD: f32 = 25.0;
 
+/// [`MapConfig::observation_radius_px`] by default, pixels.
+pub const DEFAULT_OBSERVATION_RADIUS_PX: f64 = 3.0;
+
 /// How maps are built.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -38,6 +41,13 @@ pub struct MapConfig {
     pub matcher: MatcherConfig,
     /// Triangulation, including the paper's `δr = 10 px`.
     pub triangulation: TriangulationConfig,
+    /// Beyond the paper: every other training frame of the zone also looks for the map
+    /// points. Each point is projected with the frame's known pose and matched to the frame's
+    /// SURF features within this many pixels (same descriptor tests as the tracks); the new
+    /// observations join the point's track and the point is triangulated again from all of
+    /// them (more views and a wider baseline: a sharper point; the earlier one is kept when
+    /// the new triangulation fails its checks). 0 = off: the `images_per_zone` images only.
+    pub observation_radius_px: f64,
 }
 
 impl Default for MapConfig {
@@ -48,6 +58,7 @@ impl Default for MapConfig {
             surf: SurfConfig::default().with_threshold(DEFAULT_MAP_THRESHOLD),
             matcher: MatcherConfig::default(),
             triangulation: TriangulationConfig::default(),
+            observation_radius_px: DEFAULT_OBSERVATION_RADIUS_PX,
         }
     }
 }
@@ -62,6 +73,12 @@ impl MapConfig {
             return Err(LocalizeError::Config(format!(
                 "map: images_per_zone must be at least 3 (the paper's m ≥ 3), got {}",
                 self.images_per_zone
+            )));
+        }
+        if !(self.observation_radius_px.is_finite() && self.observation_radius_px >= 0.0) {
+            return Err(LocalizeError::Config(format!(
+                "map: observation_radius_px must be a finite value >= 0, got {}",
+                self.observation_radius_px
             )));
         }
         if self.min_views < 2 {
@@ -234,7 +251,15 @@ pub fn build_map_masked(
         .par_iter()
         .map(|zone| {
             let frames = pick_frames(zone.first_frame, zone.last_frame, cfg.images_per_zone);
-            let map = build_zone_map(train, zone.index, &frames, camera, cfg, &surf, &matcher);
+            let map = build_zone_map(train, zone.index, &frames, camera, cfg, &surf, &matcher)
+                .and_then(|mut map| {
+                    if cfg.observation_radius_px > 0.0 {
+                        let others =
+                            (zone.first_frame..=zone.last_frame).filter(|f| !frames.contains(f));
+                        extend_observations(train, others, &mut map.points, camera, cfg, &surf)?;
+                    }
+                    Ok(map)
+                });
             progress(zone.index);
             map
         })
@@ -359,6 +384,69 @@ fn build_zone_map(
         rejected_tracks: rejected,
         keypoints: total,
     })
+}
+
+/// [`MapConfig::observation_radius_px`]: the observations of `points` in the training frames
+/// `others` (found by projecting each point with the frame's known pose), and the points
+/// triangulated again from all their observations.
+fn extend_observations(
+    train: &Sequence,
+    others: impl Iterator<Item = usize>,
+    points: &mut [MapPoint],
+    camera: &Camera,
+    cfg: &MapConfig,
+    surf: &Surf,
+) -> Result<(), LocalizeError> {
+    if points.is_empty() {
+        return Ok(());
+    }
+    let mut found: Vec<Vec<(usize, Point2<f64>)>> = vec![Vec::new(); points.len()];
+    let refs: Vec<&MapPoint> = points.iter().collect();
+    for f in others {
+        let img = train.load_gray(f)?;
+        let features = surf.detect_and_describe(&img)?;
+        let matches = crate::guided::match_guided(
+            &features,
+            &refs,
+            camera,
+            &train.poses[f].pose,
+            cfg.observation_radius_px,
+            cfg.triangulation.min_depth_mm,
+            &cfg.matcher,
+        );
+        for m in matches {
+            let kp = &features[m.query].keypoint;
+            found[m.train].push((f, Point2::new(kp.x as f64, kp.y as f64)));
+        }
+    }
+    // The point moves only when every observation, old and new, agrees with it within the
+    // search radius: a wrong match in a repetitive texture fails this and leaves it as it was.
+    let strict = TriangulationConfig {
+        delta_r_px: cfg.observation_radius_px.min(cfg.triangulation.delta_r_px),
+        ..cfg.triangulation
+    };
+    let mut triangulator = Triangulator::new(*camera, strict);
+    for (point, new) in points.iter_mut().zip(found) {
+        if new.is_empty() {
+            continue;
+        }
+        let mut all = point.observations.clone();
+        all.extend(new);
+        all.sort_by_key(|o| o.0);
+        let observations: Vec<Observation> = all
+            .iter()
+            .map(|&(f, pixel)| Observation {
+                pose: train.poses[f].pose,
+                pixel,
+            })
+            .collect();
+        if let Ok(tp) = triangulator.triangulate(&observations) {
+            point.p_world = tp.p_world;
+            point.reprojection_rms_px = tp.reprojection_rms_px;
+            point.observations = all;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

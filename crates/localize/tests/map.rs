@@ -9,6 +9,12 @@ use endoloc_net::{UniformBy, ZoneConfig, ZoneTable};
 use endoloc_sim::{Preset, SimConfig};
 
 fn simulated_map() -> (tempfile::TempDir, endoloc_localize::Map, Dataset) {
+    let (tmp, ds) = simulated_pass();
+    let map = map_with(&ds, MapConfig::default().observation_radius_px);
+    (tmp, map, ds)
+}
+
+fn simulated_pass() -> (tempfile::TempDir, Dataset) {
     let tmp = tempfile::tempdir().unwrap();
     let mut cfg = SimConfig::preset(Preset::Small).with_seed(1);
     cfg.train.frames = 300;
@@ -17,16 +23,85 @@ fn simulated_map() -> (tempfile::TempDir, endoloc_localize::Map, Dataset) {
     let out = tmp.path().join("ds");
     endoloc_sim::simulate(&cfg, &out, false, &|_| {}).unwrap();
     let ds = Dataset::open(&out).unwrap();
+    (tmp, ds)
+}
+
+/// The map of 20 uniform zones, 8 images each, with `observation_radius_px`.
+fn map_with(ds: &Dataset, observation_radius_px: f64) -> endoloc_localize::Map {
     let train = ds.sequence("train").unwrap();
     let zones =
         ZoneTable::from_sequence(&train, &ZoneConfig::uniform(20, UniformBy::ArcLength)).unwrap();
     let mut map_cfg = MapConfig {
         images_per_zone: 8,
+        observation_radius_px,
         ..MapConfig::default()
     };
     map_cfg.surf.threshold = 50.0;
-    let map = build_map(&train, &zones, &ds.meta.camera, &map_cfg, &|_| {}).unwrap();
-    (tmp, map, ds)
+    build_map(&train, &zones, &ds.meta.camera, &map_cfg, &|_| {}).unwrap()
+}
+
+/// For every point of `map`, `|depth / rendered depth − 1|` at its first observation (the
+/// renderer's depth map there, nearest in the 5×5 neighbourhood).
+fn first_view_depth_errors(map: &endoloc_localize::Map, ds: &Dataset) -> Vec<f64> {
+    let train = ds.sequence("train").unwrap();
+    let camera = ds.meta.camera;
+    let (w, h) = (camera.width as i64, camera.height as i64);
+    let mut depth_cache = std::collections::HashMap::new();
+    let mut errors = Vec::new();
+    for p in map.zones.iter().flat_map(|z| &z.points) {
+        let (frame, px) = p.observations[0];
+        let depth = depth_cache
+            .entry(frame)
+            .or_insert_with(|| train.load_depth_mm(frame).unwrap().2);
+        let z = (train.poses[frame].pose.inverse() * p.p_world).z;
+        let (u, v) = (px.x.round() as i64, px.y.round() as i64);
+        let mut best = f64::INFINITY;
+        for (uu, vv) in (-2..=2).flat_map(|dv| (-2..=2).map(move |du| (u + du, v + dv))) {
+            if uu >= 0 && vv >= 0 && uu < w && vv < h {
+                let d = depth[(vv * w + uu) as usize] as f64;
+                if d > 0.0 && (z - d).abs() < (z - best).abs() {
+                    best = d;
+                }
+            }
+        }
+        if best.is_finite() {
+            errors.push((z / best - 1.0).abs());
+        }
+    }
+    errors.sort_by(f64::total_cmp);
+    errors
+}
+
+/// Every other frame of a zone adding its observations makes the points sharper: the same
+/// points, seen in more images, lie closer to the rendered surface.
+#[test]
+fn observations_from_every_frame_of_a_zone_sharpen_the_points() {
+    let (_tmp, ds) = simulated_pass();
+    let paper = map_with(&ds, 0.0);
+    let extended = map_with(&ds, 3.0);
+    assert_eq!(paper.summary().points, extended.summary().points);
+    let views = |m: &endoloc_localize::Map| -> f64 {
+        let pts: Vec<_> = m.zones.iter().flat_map(|z| &z.points).collect();
+        pts.iter().map(|p| p.observations.len()).sum::<usize>() as f64 / pts.len() as f64
+    };
+    let (v0, v1) = (views(&paper), views(&extended));
+    assert!(v1 > 2.0 * v0, "views per point: {v0:.2} → {v1:.2}");
+    let q = |e: &[f64], f: f64| e[((e.len() - 1) as f64 * f) as usize];
+    let (e0, e1) = (
+        first_view_depth_errors(&paper, &ds),
+        first_view_depth_errors(&extended, &ds),
+    );
+    eprintln!(
+        "views per point {v0:.2} → {v1:.2}; relative depth error median {:.4} → {:.4}, p75 {:.4} → {:.4}",
+        q(&e0, 0.5),
+        q(&e1, 0.5),
+        q(&e0, 0.75),
+        q(&e1, 0.75)
+    );
+    // (0.0345 → 0.0303 and 0.122 → 0.117 at this seed; the rendered depth near a blob is
+    // itself only good to a few per cent, which bounds what this check can see.)
+    assert!(q(&e1, 0.5) < 0.92 * q(&e0, 0.5), "median");
+    assert!(q(&e1, 0.75) < 0.99 * q(&e0, 0.75), "p75");
 }
 
 #[test]

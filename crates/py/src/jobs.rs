@@ -44,7 +44,10 @@ pub const JOBS: &[&str] = &[
 /// Options whose command-line name differs from the job's field, per job: `(option, field)`.
 fn renamed(job: &str) -> &'static [(&'static str, &'static str)] {
     match job {
-        "map" => &[("delta_r", "delta_r_px")],
+        "map" => &[
+            ("delta_r", "delta_r_px"),
+            ("observation_radius", "observation_radius_px"),
+        ],
         // `from` is a Python keyword.
         "experiment.zones" => &[("from_", "from")],
         _ => &[],

@@ -35,6 +35,11 @@ pub struct MapArgs {
     /// δr: drop map points reprojecting farther than this, pixels.
     #[arg(long, default_value_t = MapJob::default().delta_r_px)]
     delta_r: f64,
+    /// Every other training frame of a zone also looks for the zone's map points (projected
+    /// with its known pose, matched within this many pixels), and each point is triangulated
+    /// again from all its observations: sharper points. 0 = only the --images-per-zone images.
+    #[arg(long, default_value_t = MapJob::default().observation_radius_px)]
+    observation_radius: f64,
     /// Replace an existing map.
     #[arg(long)]
     force: bool,
@@ -49,6 +54,7 @@ impl From<MapArgs> for MapJob {
             images_per_zone: a.images_per_zone,
             threshold: a.threshold,
             delta_r_px: a.delta_r,
+            observation_radius_px: a.observation_radius,
             force: a.force,
         }
     }
