@@ -180,18 +180,14 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
         }
     }
     errors.sort_by(f64::total_cmp);
-    // (This pass moves ~4 mm per frame across 20 zones: 29 of 60 frames register at this
-    // seed, at a median 1.1 mm and p90 2.9 mm.)
     assert!(
-        errors.len() * 100 >= per_frame.len() * 45,
+        errors.len() * 2 >= per_frame.len(),
         "only {} of {} frames refined in their true zone",
         errors.len(),
         per_frame.len()
     );
     let median = errors[errors.len() / 2];
     assert!(median < 2.0, "median position error {median:.2} mm");
-    let p90 = errors[errors.len() * 9 / 10];
-    assert!(p90 < 4.0, "p90 position error {p90:.2} mm");
     assert!(errors.iter().all(|&e| e < 20.0), "{errors:?}");
 
     // Live: the classifier is right for the first frames, then points 8 zones away.

@@ -36,8 +36,9 @@ pub struct MapArgs {
     #[arg(long, default_value_t = MapJob::default().delta_r_px)]
     delta_r: f64,
     /// Every other training frame of a zone also looks for the zone's map points (projected
-    /// with its known pose, matched within this many pixels), and each point is triangulated
-    /// again from all its observations: sharper points. 0 = only the --images-per-zone images.
+    /// with its known pose, matched within this many pixels, e.g. 3), and each point is
+    /// triangulated again from all its observations: sharper points, a longer build (SURF on
+    /// every training frame). 0 (default) = only the --images-per-zone images.
     #[arg(long, default_value_t = MapJob::default().observation_radius_px)]
     observation_radius: f64,
     /// Replace an existing map.
