@@ -580,7 +580,7 @@ impl BenchmarkJob {
             md.push_str(&format!("\nNot finished: {}.\n", missing.join(", ")));
         }
         md.push_str("\n## Per colon\n\n");
-        md.push_str(&colon_table(rows));
+        md.push_str(&colon_table(&unseen));
         md.push_str("\n![mean errors of each colon, by method](benchmark.png)\n\nReproduce: `");
         md.push_str(&self.command(None).replace(" --merge", ""));
         md.push_str("`\n");
