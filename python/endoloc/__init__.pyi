@@ -228,6 +228,7 @@ def localize(
     max_sigma_mm: float = ...,
     max_std_mm: float = ...,
     weak_max_std_mm: float = ...,
+    confirm: bool = ...,
     max_rms_px: float = ...,
     max_jump_mm: float = ...,
     strict: bool = ...,
@@ -274,6 +275,8 @@ def localize(
       mm (default: no limit).
     - ``weak_max_std_mm``: Per frame: the same for registrations with fewer than
       ``trusted_inliers`` inliers.
+    - ``confirm``: Confirm every registration against all map points near its pose and
+      refine it again from them; one they do not support is `init_only` (`unsupported`).
     - ``max_rms_px``: Validity: largest RMS reprojection error of the inliers, pixels.
     - ``max_jump_mm``: Validity: largest jump from the prior, mm.
     - ``strict``: Stop at the first image that cannot be read instead of reporting the

@@ -204,6 +204,7 @@ class Localizer:
         max_sigma_mm: float = ...,
         max_std_mm: float = ...,
         weak_max_std_mm: float = ...,
+        confirm: bool = ...,
         max_rms_px: float = ...,
         max_jump_mm: float = ...,
     ) -> None: ...

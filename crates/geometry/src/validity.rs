@@ -152,12 +152,41 @@ pub enum Reason {
         /// Inliers of the registration.
         inliers: usize,
     },
+    /// Too few of the map points near the registered pose match the frame when matched in
+    /// windows around their projections: the registration rests on a few look-alike matches.
+    /// The registered pose is still reported.
+    Unsupported {
+        /// Inliers of the confirming refinement.
+        inliers: usize,
+        /// The configured minimum.
+        min: usize,
+    },
+    /// The confirmed pose is valid but fits fewer map points near it than a pose trusted on
+    /// its own needs (a weakly textured view). Live, it is `refined` when it agrees with the
+    /// motion model's prediction. The confirmed pose is reported.
+    WeaklySupported {
+        /// Inliers of the confirmed pose.
+        inliers: usize,
+        /// The configured minimum.
+        min: usize,
+    },
+    /// Confirmation started from poses around the registered one ends at two poses far apart
+    /// that the map points near them support almost equally: the frame does not tell them
+    /// apart. The better-supported pose is reported.
+    Ambiguous {
+        /// Distance between the two camera centres, mm.
+        distance_mm: f64,
+        /// Inliers of the better-supported pose.
+        inliers: usize,
+        /// Inliers of the other.
+        rival_inliers: usize,
+    },
 }
 
 impl Reason {
     /// A stable keyword: `too_few_correspondences`, `too_few_inliers`, `rms_too_high`,
     /// `jump_too_large`, `degenerate_geometry`, `unreadable_image`, `inconsistent_with_motion`,
-    /// `unconfirmed` or `uncertain`.
+    /// `unconfirmed`, `uncertain`, `unsupported`, `weakly_supported` or `ambiguous`.
     pub fn code(&self) -> &'static str {
         match self {
             Reason::TooFewCorrespondences { .. } => "too_few_correspondences",
@@ -169,6 +198,9 @@ impl Reason {
             Reason::InconsistentMotion { .. } => "inconsistent_with_motion",
             Reason::Unconfirmed { .. } => "unconfirmed",
             Reason::Uncertain { .. } => "uncertain",
+            Reason::Unsupported { .. } => "unsupported",
+            Reason::WeaklySupported { .. } => "weakly_supported",
+            Reason::Ambiguous { .. } => "ambiguous",
         }
     }
 }
@@ -215,6 +247,22 @@ impl std::fmt::Display for Reason {
             } => write!(
                 f,
                 "registration with {inliers} inliers and a position uncertainty of {position_std_mm:.2} mm (at most {max_mm:.2} mm to be trusted)"
+            ),
+            Reason::Unsupported { inliers, min } => write!(
+                f,
+                "only {inliers} map points near the registered pose match the frame (at least {min} to be trusted)"
+            ),
+            Reason::WeaklySupported { inliers, min } => write!(
+                f,
+                "the confirmed pose fits only {inliers} map points near it (at least {min} to be trusted on its own)"
+            ),
+            Reason::Ambiguous {
+                distance_mm,
+                inliers,
+                rival_inliers,
+            } => write!(
+                f,
+                "two poses {distance_mm:.1} mm apart fit the map points near them ({inliers} and {rival_inliers} inliers)"
             ),
         }
     }

@@ -31,6 +31,8 @@ pub struct LiveBenchJob {
     pub frames: Option<usize>,
     /// Also run the reference SURF loop on every frame, alternating which runs first.
     pub compare: bool,
+    /// Localize as `endoloc localize --live --confirm` does.
+    pub confirm: bool,
 }
 
 impl Default for LiveBenchJob {
@@ -40,6 +42,7 @@ impl Default for LiveBenchJob {
             seq: PathBuf::new(),
             frames: None,
             compare: true,
+            confirm: false,
         }
     }
 }
@@ -73,6 +76,7 @@ impl LiveBenchJob {
             model: Some(self.model.clone()),
             seq: self.seq.clone(),
             live: true,
+            confirm: self.confirm,
             ..LocalizeJob::default()
         };
         let mask = dataset_mask(&self.seq)?;

@@ -12,6 +12,7 @@
 
 #![warn(missing_docs)]
 
+pub mod confirm;
 pub mod export;
 pub mod guided;
 pub mod map;
@@ -22,6 +23,7 @@ pub mod pipeline;
 #[cfg(test)]
 mod config_tests;
 
+pub use confirm::{ConfirmConfig, Confirmation, confirm};
 pub use map::{
     DEFAULT_MAP_THRESHOLD, Map, MapConfig, MapPoint, MapSummary, ZoneMap, build_map,
     build_map_masked,

@@ -24,6 +24,7 @@ use nalgebra::{Point2, Point3};
 use serde::{Deserialize, Serialize};
 
 use crate::LocalizeError;
+use crate::confirm::{ConfirmConfig, confirm};
 use crate::map::{Map, MapPoint};
 use crate::motion::{Gate, MotionConfig, Prediction, Track};
 
@@ -61,7 +62,8 @@ pub struct LocalizerConfig {
     pub recover_frames: usize,
     /// Live mode only: the motion model predicts a pose for at most this many frames after
     /// the last refined one; an `init_only` frame reports that prediction (source
-    /// `predicted`) instead of its zone's median pose (a zone median can be a zone away), and
+    /// `predicted`) instead of its zone's median pose (a zone median can be a zone away;
+    /// an `ambiguous` frame keeps its better-supported pose), and
     /// registrations are gated against it. 0 = no prediction: the zone median, as in the
     /// paper.
     pub hold_frames: usize,
@@ -92,6 +94,10 @@ pub struct LocalizerConfig {
     /// millimetres too far along the lumen) come with few inliers and a larger stated
     /// uncertainty than right ones.
     pub weak_max_std_mm: f64,
+    /// Every registration is confirmed against all map points near its pose and refined again
+    /// from them ([`crate::confirm`]; beyond the paper). Off by default
+    /// ([`ConfirmConfig::standard`] turns it on).
+    pub confirm: ConfirmConfig,
 }
 
 impl Default for LocalizerConfig {
@@ -111,6 +117,7 @@ impl Default for LocalizerConfig {
             uncertainty_scale: 3.0,
             max_std_mm: f64::INFINITY,
             weak_max_std_mm: f64::INFINITY,
+            confirm: ConfirmConfig::default(),
         }
     }
 }
@@ -159,8 +166,9 @@ pub enum PoseSource {
     Refined,
     /// Live mode: the motion model's prediction from the recent refined frames.
     Predicted,
-    /// Per frame: registered to the map and refined, but too uncertain to be trusted (status
-    /// `init_only`, reason `uncertain`).
+    /// Registered to the map and refined, but not trusted (status `init_only`): too uncertain
+    /// (per frame, reason `uncertain`) or not confirmed by the map points near it (reason
+    /// `unsupported` or `ambiguous`).
     Registered,
     /// The classified zone's median training pose (the paper's initial pose).
     ZoneMedian,
@@ -330,6 +338,7 @@ impl Localizer {
         }
         classifier.check_compatible(&map.camera)?;
         cfg.motion.validate().map_err(LocalizeError::Config)?;
+        cfg.confirm.validate()?;
         if !(cfg.uncertainty_scale.is_finite() && cfg.uncertainty_scale > 0.0) {
             return Err(LocalizeError::Config(format!(
                 "uncertainty_scale = {}; expected a finite value > 0",
@@ -526,14 +535,63 @@ impl Localizer {
                 .map(|(p, _)| [p.x as f32, p.y as f32])
                 .collect()
         });
+        let mut result = result;
+        let (mut inliers, mut rms, mut inlier_px, mut correspondences) =
+            (inliers, rms, inlier_px, matches.len());
+        if self.cfg.confirm.is_on()
+            && result.verdict.status == Status::Refined
+            && let Some(t_wc) = result.t_wc
+        {
+            let t = Instant::now();
+            let near = self.classifier.truth_zone(&t_wc).unwrap_or(zone);
+            let c = confirm(
+                features,
+                &self.map,
+                near,
+                &t_wc,
+                &self.cfg.matcher,
+                &self.cfg.localize,
+                &self.cfg.confirm,
+            );
+            times.refine_ms += ms(t);
+            correspondences = c.correspondences;
+            inlier_px = c.inlier_px;
+            (inliers, rms) = c
+                .estimate
+                .as_ref()
+                .map_or((0, f64::NAN), |e| (e.inlier_count, e.rms_px));
+            result.verdict.status = c.status;
+            result.t_wc = match (&c.reason, &c.estimate) {
+                // Not supported: the registered pose stays, reported as such.
+                (Some(Reason::Unsupported { .. }), _) | (_, None) => Some(t_wc),
+                // Confirmed (with its own covariance), weakly supported, or the better of two
+                // ambiguous poses.
+                (_, Some(e)) => Some(e.t_wc),
+            };
+            result.verdict.reason = c.reason;
+            result.estimate = c.estimate;
+        }
         let status = result.verdict.status;
+        let unsupported = matches!(
+            result.verdict.reason,
+            Some(
+                Reason::Unsupported { .. }
+                    | Reason::WeaklySupported { .. }
+                    | Reason::Ambiguous { .. }
+            )
+        );
         let source = match status {
+            Status::InitOnly if unsupported => PoseSource::Registered,
             Status::Refined => PoseSource::Refined,
             Status::InitOnly => PoseSource::ZoneMedian,
             Status::Rejected => PoseSource::None,
         };
+        let pose_kept = matches!(
+            result.verdict.reason,
+            Some(Reason::Ambiguous { .. } | Reason::WeaklySupported { .. })
+        );
         let (position_std_mm, orientation_std_deg) = match (&result.estimate, status) {
-            (Some(e), Status::Refined) => (
+            (Some(e), _) if status == Status::Refined || pose_kept => (
                 self.cfg.uncertainty_scale * e.position_sigma_mm(),
                 self.cfg.uncertainty_scale * e.rotation_sigma_deg(),
             ),
@@ -548,7 +606,7 @@ impl Localizer {
             source,
             position_std_mm,
             orientation_std_deg,
-            correspondences: matches.len(),
+            correspondences,
             inliers,
             inlier_px,
             reprojection_rms_px: rms,
@@ -719,6 +777,7 @@ impl Localizer {
         // A registration with the trusted inlier count ends the search; a weaker one may be a
         // spurious consensus in a wrong zone, so the other candidates are tried too and the
         // refined result with the most inliers wins.
+        let trusted = self.search_ends_at();
         let mut weak: Option<FrameResult> = None;
         for zone in order {
             let score = pred.zone_scores.get(zone).copied().unwrap_or(f32::NAN);
@@ -726,7 +785,7 @@ impl Localizer {
             spent.matching_ms += r.times.matching_ms;
             spent.refine_ms += r.times.refine_ms;
             if r.status == Status::Refined {
-                if r.inliers >= self.cfg.motion.trusted_inliers {
+                if r.inliers >= trusted {
                     return Ok(with_times(r, &spent));
                 }
                 if weak.as_ref().is_none_or(|w| r.inliers > w.inliers) {
@@ -742,6 +801,21 @@ impl Localizer {
         // No zone registered: report the chosen zone's verdict (its median pose, or rejected).
         let r = first.ok_or_else(|| LocalizeError::Config("no candidate zone".into()))?;
         Ok(with_times(r, &spent))
+    }
+
+    /// Inliers of a refined registration that end the search over candidate zones:
+    /// [`MotionConfig::trusted_inliers`], or with confirmation on, the confirmed-pose count
+    /// below which more starts are tried ([`ConfirmConfig::multi_start_below`], scaled to the
+    /// image size) when that is higher — confirmation can lift a wrong zone's spurious
+    /// consensus to a few dozen inliers, while the right zone gives several times more.
+    fn search_ends_at(&self) -> usize {
+        let trusted = self.cfg.motion.trusted_inliers;
+        if !self.cfg.confirm.is_on() {
+            return trusted;
+        }
+        let floor = self.cfg.localize.validity.min_inliers;
+        let c = self.cfg.confirm.for_camera(&self.map.camera, floor);
+        trusted.max(c.multi_start_below)
     }
 
     /// Registers precomputed SURF features in one forced zone (its median pose as the prior,
@@ -896,15 +970,20 @@ impl Localizer {
         let motion = &self.cfg.motion;
         let prediction = state.motion.predict(frame, self.cfg.hold_frames, motion);
         let seen: &LiveState = state;
-        let mut r = self.with_retry(features, retry, times, |f, times| {
+        let r = self.with_retry(features, retry, times, |f, times| {
             self.live_register(seen, frame, zone, prediction.as_ref(), f, pred, times)
         })?;
+        let mut r = self.disambiguate(r, prediction.as_ref());
         if r.status == Status::Refined
             && let Some(t_wc) = r.t_wc
         {
             self.gate(state, frame, prediction.as_ref(), t_wc, &mut r);
         }
+        // An ambiguous frame keeps the better supported of its two poses: on simulated passes
+        // it is nearly always the right one, and closer than a prediction coasting through a
+        // stretch that registers badly.
         if r.status == Status::InitOnly
+            && !matches!(r.reason, Some(Reason::Ambiguous { .. }))
             && let Some(p) = &prediction
         {
             r.t_wc = Some(p.t_wc);
@@ -984,6 +1063,7 @@ impl Localizer {
             let m = &self.cfg.motion;
             let radius = m.search_px + m.search_px_per_frame * p.age as f64;
             let r = self.register_from(features, z, &p.t_wc, Some(radius), score, times)?;
+            let r = self.disambiguate(r, Some(p));
             if r.status == Status::Refined
                 && r.t_wc.is_some_and(|t| p.compare(&t, &self.gate).agrees)
             {
@@ -1007,6 +1087,27 @@ impl Localizer {
         r.times.matching_ms += spent.matching_ms;
         r.times.refine_ms += spent.refine_ms;
         Ok(r)
+    }
+
+    /// Live: a registration that confirmation found `weakly_supported` (valid, few inliers)
+    /// is `refined` when its pose agrees with the motion model's `prediction`, as a weak
+    /// registration is at the motion gate; one found `ambiguous` (two poses apart, nearly
+    /// equally supported) when the better supported agrees with a recent prediction (at most
+    /// [`LocalizerConfig::track_frames`] old, while the gate is still narrow): the motion
+    /// tells the two apart.
+    fn disambiguate(&self, mut r: FrameResult, prediction: Option<&Prediction>) -> FrameResult {
+        let usable = match r.reason {
+            Some(Reason::WeaklySupported { .. }) => prediction,
+            Some(Reason::Ambiguous { .. }) => prediction.filter(|p| p.age <= self.cfg.track_frames),
+            _ => None,
+        };
+        let agrees = |t: &Pose| usable.is_some_and(|p| p.compare(t, &self.gate).agrees);
+        if r.status == Status::InitOnly && r.t_wc.as_ref().is_some_and(agrees) {
+            r.status = Status::Refined;
+            r.reason = None;
+            r.source = PoseSource::Refined;
+        }
+        r
     }
 
     fn remember(&self, state: &mut LiveState, r: &FrameResult, frame: usize) {

@@ -10,6 +10,9 @@
 //! - live, a registration far from the prediction with few inliers (a frame from another
 //!   zone) is not `refined`;
 //! - a frame with too few features at the test threshold registers with the retry features;
+//! - confirmation against the map points near the registered pose sharpens right poses,
+//!   pulls a pose 3 mm off back to the truth and refuses a pose that another stretch's
+//!   features do not support;
 //! - geometric verification (`endoloc classify --verify`): frames the classifier puts one
 //!   zone off get their true zone back from the zone of their registered pose.
 
@@ -18,8 +21,8 @@ use endoloc_data::Dataset;
 use endoloc_geometry::Reason;
 use endoloc_geometry::{Pose, Status};
 use endoloc_localize::{
-    FrameResult, Localizer, LocalizerConfig, MapConfig, MotionConfig, PoseSource, RetryFeatures,
-    StageTimes, build_map,
+    ConfirmConfig, FrameResult, Localizer, LocalizerConfig, MapConfig, MotionConfig, PoseSource,
+    RetryFeatures, StageTimes, build_map, confirm,
 };
 use endoloc_net::database::{DescriptorDatabase, ScoreRule};
 use endoloc_net::model::{FORMAT_VERSION, ModelConfig};
@@ -677,4 +680,128 @@ fn per_frame_an_uncertain_registration_keeps_its_pose_but_is_not_refined() {
         }
     }
     assert!(demoted > 0, "no frame above the median uncertainty");
+}
+
+#[test]
+fn confirmation_sharpens_right_registrations_and_refuses_a_pose_the_map_does_not_support() {
+    let f = fixture();
+    let test = f.ds.sequence("test").unwrap();
+    let plain = localizer(f, LocalizerConfig::default());
+    let confirming = localizer(
+        f,
+        LocalizerConfig {
+            confirm: ConfirmConfig::standard(),
+            ..LocalizerConfig::default()
+        },
+    );
+    let frames: Vec<usize> = (0..test.len()).step_by(5).collect();
+    let features: Vec<_> = frames
+        .iter()
+        .map(|&i| {
+            plain
+                .surf()
+                .detect_and_describe(&test.load_gray(i).unwrap())
+                .unwrap()
+        })
+        .collect();
+    let errors = |loc: &Localizer| -> Vec<f64> {
+        let mut e: Vec<f64> = frames
+            .iter()
+            .zip(&features)
+            .filter_map(|(&i, feats)| {
+                let z = loc.classifier().truth_zone(&test.poses[i].pose).unwrap();
+                let r = loc
+                    .localize_features(feats, None, &predict(z), z, StageTimes::default())
+                    .unwrap();
+                (r.status == Status::Refined).then(|| position_error_mm(&r, &test.poses[i].pose))
+            })
+            .collect();
+        e.sort_by(f64::total_cmp);
+        e
+    };
+    let (before, after) = (errors(&plain), errors(&confirming));
+    let median = |e: &[f64]| e[e.len() / 2];
+    let wrong = |e: &[f64]| e.iter().filter(|&&x| x > 5.0).count();
+    eprintln!(
+        "refined {} → {}, median {:.3} → {:.3} mm, more than 5 mm off {} → {}",
+        before.len(),
+        after.len(),
+        median(&before),
+        median(&after),
+        wrong(&before),
+        wrong(&after)
+    );
+    assert!(
+        after.len() * 10 >= before.len() * 8,
+        "confirmation refused too many frames: {} of {}",
+        after.len(),
+        before.len()
+    );
+    assert!(
+        median(&after) < 0.8 * median(&before),
+        "the confirmed poses are not sharper: median {:.3} mm against {:.3} mm",
+        median(&after),
+        median(&before)
+    );
+    assert!(
+        wrong(&before) >= 2 && wrong(&after) < wrong(&before),
+        "refined frames more than 5 mm off: {} with confirmation, {} without",
+        wrong(&after),
+        wrong(&before)
+    );
+
+    // A pose 3 mm off is pulled back to the truth by the map points near it; the same pose
+    // with another stretch's features is not supported.
+    let cfg = ConfirmConfig::standard();
+    // The best-textured frame: the most inliers when localized with confirmation.
+    let k = (0..frames.len())
+        .max_by_key(|&k| {
+            let i = frames[k];
+            let z = confirming
+                .classifier()
+                .truth_zone(&test.poses[i].pose)
+                .unwrap();
+            confirming
+                .localize_features(&features[k], None, &predict(z), z, StageTimes::default())
+                .unwrap()
+                .inliers
+        })
+        .unwrap();
+    let (i, feats) = (frames[k], &features[k]);
+    let truth = test.poses[i].pose;
+    let mut off = truth;
+    off.translation.vector += truth.rotation * nalgebra::Vector3::new(3.0, 0.0, 0.0);
+    let zone = confirming.classifier().truth_zone(&truth).unwrap();
+    let localize = &confirming.config().localize;
+    let c = confirm(
+        feats,
+        &f.map,
+        zone,
+        &off,
+        &confirming.config().matcher,
+        localize,
+        &cfg,
+    );
+    assert_eq!(c.status, Status::Refined, "{:?}", c.reason);
+    let e = endoloc_geometry::position_error_mm(&c.estimate.unwrap().t_wc, &truth);
+    assert!(e < 0.5, "confirmed {e:.2} mm from the truth");
+    let elsewhere = &features[(k + frames.len() / 2) % frames.len()];
+    let c = confirm(
+        elsewhere,
+        &f.map,
+        zone,
+        &truth,
+        &confirming.config().matcher,
+        localize,
+        &cfg,
+    );
+    assert_eq!(c.status, Status::InitOnly);
+    assert!(
+        matches!(
+            c.reason,
+            Some(Reason::Unsupported { .. } | Reason::WeaklySupported { .. })
+        ),
+        "{:?}",
+        c.reason
+    );
 }

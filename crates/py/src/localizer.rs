@@ -313,6 +313,7 @@ const LOCALIZER_OPTIONS: &[&str] = &[
     "max_sigma_mm",
     "max_std_mm",
     "weak_max_std_mm",
+    "confirm",
     "max_rms_px",
     "max_jump_mm",
 ];

@@ -44,6 +44,9 @@ struct LiveArgs {
     /// Time the current localizer alone (no reference run).
     #[arg(long)]
     no_compare: bool,
+    /// Localize as `endoloc localize --live --confirm` does.
+    #[arg(long)]
+    confirm: bool,
 }
 
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
@@ -54,6 +57,7 @@ pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
                 seq: a.seq,
                 frames: a.frames,
                 compare: !a.no_compare,
+                confirm: a.confirm,
             };
             crate::ui::print(&job.run(ui)?)?;
         }

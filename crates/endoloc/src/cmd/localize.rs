@@ -169,6 +169,12 @@ pub struct LocalizeArgs {
     /// inliers.
     #[arg(long, default_value_t = LocalizeJob::default().weak_max_std_mm)]
     weak_max_std_mm: f64,
+    /// Confirm every registration against all map points near its pose (matched in shrinking
+    /// windows around their projections) and refine it again from them: sharper poses, and a
+    /// registration that few of them support is `init_only` (unsupported) with its registered
+    /// pose (source `registered`).
+    #[arg(long)]
+    confirm: bool,
     /// Validity: largest RMS reprojection error of the inliers, pixels.
     #[arg(long, default_value_t = LocalizeJob::default().max_rms_px)]
     max_rms_px: f64,
@@ -239,6 +245,7 @@ impl From<LocalizeArgs> for LocalizeJob {
             max_sigma_mm: a.max_sigma_mm,
             max_std_mm: a.max_std_mm,
             weak_max_std_mm: a.weak_max_std_mm,
+            confirm: a.confirm,
             max_rms_px: a.max_rms_px,
             max_jump_mm: a.max_jump_mm,
             strict: a.strict,

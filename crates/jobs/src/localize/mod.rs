@@ -8,7 +8,7 @@ use std::time::Instant;
 use endoloc_data::{Dataset, Sequence, StampedPose};
 use endoloc_features::Mask;
 use endoloc_localize::map_io::load_map;
-use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, MotionConfig};
+use endoloc_localize::{ConfirmConfig, FrameResult, Localizer, LocalizerConfig, MotionConfig};
 use endoloc_net::ZoneClassifier;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -113,6 +113,10 @@ pub struct LocalizeJob {
     /// Per frame: the same for registrations with fewer than `trusted_inliers` inliers
     /// ([`LocalizerConfig::weak_max_std_mm`]).
     pub weak_max_std_mm: f64,
+    /// Confirm every registration against all map points near its pose and refine it again
+    /// from them ([`endoloc_localize::confirm`]); a registration they do not support is
+    /// `init_only` (reason `unsupported`).
+    pub confirm: bool,
     /// Validity: largest RMS reprojection error of the inliers, pixels.
     pub max_rms_px: f64,
     /// Validity: largest jump from the prior, mm.
@@ -150,6 +154,7 @@ impl Default for LocalizeJob {
             max_sigma_mm: validity.max_position_sigma_mm,
             max_std_mm: cfg.max_std_mm,
             weak_max_std_mm: cfg.weak_max_std_mm,
+            confirm: cfg.confirm.is_on(),
             max_rms_px: validity.max_rms_px,
             max_jump_mm: validity.max_jump_mm,
             strict: false,
@@ -202,6 +207,11 @@ impl LocalizeJob {
             neighbour_zones: self.neighbours,
             max_std_mm: self.max_std_mm,
             weak_max_std_mm: self.weak_max_std_mm,
+            confirm: if self.confirm {
+                ConfirmConfig::standard()
+            } else {
+                ConfirmConfig::default()
+            },
             candidate_zones: self.candidate_zones,
             track_frames: self.track_frames,
             recover_frames: self.recover_frames,
