@@ -779,7 +779,11 @@ impl Localizer {
         // refined result with the most inliers wins.
         let trusted = self.search_ends_at();
         let mut weak: Option<FrameResult> = None;
-        for zone in order {
+        let mut queue = order;
+        let mut next = 0;
+        let mut extended = false;
+        while let Some(&zone) = queue.get(next) {
+            next += 1;
             let score = pred.zone_scores.get(zone).copied().unwrap_or(f32::NAN);
             let r = self.register(features, zone, score, times)?;
             spent.matching_ms += r.times.matching_ms;
@@ -791,9 +795,24 @@ impl Localizer {
                 if weak.as_ref().is_none_or(|w| r.inliers > w.inliers) {
                     weak = Some(r);
                 }
-                continue;
+            } else {
+                first.get_or_insert(r);
             }
-            first.get_or_insert(r);
+            // With confirmation, once the candidates are tried and none is trusted, the two
+            // zones beside the best (the weak winner, or the chosen zone when none registered)
+            // are tried too, once: confirmation lifts a pose one zone off to a few dozen
+            // inliers, the right zone's to several times more.
+            if next == queue.len() && !extended && self.cfg.confirm.is_on() {
+                extended = true;
+                let best = weak.as_ref().map_or(chosen, |w| w.zone);
+                let beside = [best.wrapping_sub(1), best + 1];
+                queue.extend(
+                    beside
+                        .into_iter()
+                        .filter(|&z| z < n_zones && !queue.contains(&z))
+                        .collect::<Vec<_>>(),
+                );
+            }
         }
         if let Some(r) = weak {
             return Ok(with_times(r, &spent));
