@@ -35,11 +35,10 @@ use endoloc_features::{Feature, MatcherConfig};
 use endoloc_geometry::{
     Camera, Pose, PoseEstimate, Reason, RegistrationConfig, Status, localize_pose,
 };
-use nalgebra::{Point2, Point3};
 use serde::{Deserialize, Serialize};
 
 use crate::LocalizeError;
-use crate::map::{Map, MapPoint};
+use crate::map::{Map, MapPoint, correspondences, inlier_pixels};
 
 /// Settings of the confirmation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -300,46 +299,28 @@ fn confirm_from(
             registration.refine.min_depth_mm,
             matcher,
         );
-        let points: Vec<Point3<f64>> = matches
-            .iter()
-            .map(|m| candidates[m.train].p_world)
-            .collect();
-        let pixels: Vec<Point2<f64>> = matches
-            .iter()
-            .map(|m| {
-                let kp = &features[m.query].keypoint;
-                Point2::new(kp.x as f64, kp.y as f64)
-            })
-            .collect();
+        let (points, pixels) = correspondences(&matches, features, candidates);
         // Inputs come from the map and the detector: finite by construction.
         let Ok(result) = localize_pose(&pose, &points, &pixels, camera, registration) else {
             return last;
         };
         let inliers = result.estimate.as_ref().map_or(0, |e| e.inlier_count);
         last.correspondences = matches.len();
-        last.inlier_px = result.estimate.as_ref().map_or_else(Vec::new, |e| {
-            pixels
-                .iter()
-                .zip(&e.inliers)
-                .filter(|(_, inlier)| **inlier)
-                .map(|(p, _)| [p.x as f32, p.y as f32])
-                .collect()
-        });
-        if result.verdict.status != Status::Refined {
+        last.inlier_px = result
+            .estimate
+            .as_ref()
+            .map_or_else(Vec::new, |e| inlier_pixels(&pixels, &e.inliers));
+        let min = cfg.min_inliers;
+        let failure = if result.verdict.status != Status::Refined {
+            Some(Reason::Unsupported { inliers, min })
+        } else if i + 1 == cfg.radii_px.len() && inliers < min {
+            Some(Reason::WeaklySupported { inliers, min })
+        } else {
+            None
+        };
+        if failure.is_some() {
             last.status = Status::InitOnly;
-            last.reason = Some(Reason::Unsupported {
-                inliers,
-                min: cfg.min_inliers,
-            });
-            last.estimate = result.estimate;
-            return last;
-        }
-        if i + 1 == cfg.radii_px.len() && inliers < cfg.min_inliers {
-            last.status = Status::InitOnly;
-            last.reason = Some(Reason::WeaklySupported {
-                inliers,
-                min: cfg.min_inliers,
-            });
+            last.reason = failure;
             last.estimate = result.estimate;
             return last;
         }

@@ -448,6 +448,35 @@ fn extend_observations(
     Ok(())
 }
 
+/// The 3-D map points and the pixels of `matches` (query: `features`, train: `points`), in
+/// the form [`endoloc_geometry::localize_pose`] takes.
+pub(crate) fn correspondences(
+    matches: &[endoloc_features::Match],
+    features: &[Feature],
+    points: &[&MapPoint],
+) -> (Vec<Point3<f64>>, Vec<Point2<f64>>) {
+    matches
+        .iter()
+        .map(|m| {
+            let kp = &features[m.query].keypoint;
+            (
+                points[m.train].p_world,
+                Point2::new(kp.x as f64, kp.y as f64),
+            )
+        })
+        .unzip()
+}
+
+/// The pixels flagged in `inliers` (one flag per pixel).
+pub(crate) fn inlier_pixels(pixels: &[Point2<f64>], inliers: &[bool]) -> Vec<[f32; 2]> {
+    pixels
+        .iter()
+        .zip(inliers)
+        .filter(|(_, inlier)| **inlier)
+        .map(|(p, _)| [p.x as f32, p.y as f32])
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -20,7 +20,6 @@ use std::time::Instant;
 use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
 use endoloc_geometry::{Camera, Pose, Reason, RegistrationConfig, Status, localize_pose};
 use endoloc_net::{TemporalConfig, TemporalFilter, TrackFilter, ZoneClassifier, ZonePrediction};
-use nalgebra::{Point2, Point3};
 use serde::{Deserialize, Serialize};
 
 use crate::LocalizeError;
@@ -503,17 +502,7 @@ impl Localizer {
         times.matching_ms = ms(t);
 
         let t = Instant::now();
-        let points: Vec<Point3<f64>> = matches
-            .iter()
-            .map(|m| candidates[m.train].p_world)
-            .collect();
-        let pixels: Vec<Point2<f64>> = matches
-            .iter()
-            .map(|m| {
-                let kp = &features[m.query].keypoint;
-                Point2::new(kp.x as f64, kp.y as f64)
-            })
-            .collect();
+        let (points, pixels) = crate::map::correspondences(&matches, features, &candidates);
         let result = localize_pose(
             &prior,
             &points,
@@ -527,14 +516,10 @@ impl Localizer {
             .estimate
             .as_ref()
             .map_or((0, f64::NAN), |e| (e.inlier_count, e.rms_px));
-        let inlier_px = result.estimate.as_ref().map_or_else(Vec::new, |e| {
-            pixels
-                .iter()
-                .zip(&e.inliers)
-                .filter(|(_, inlier)| **inlier)
-                .map(|(p, _)| [p.x as f32, p.y as f32])
-                .collect()
-        });
+        let inlier_px = result
+            .estimate
+            .as_ref()
+            .map_or_else(Vec::new, |e| crate::map::inlier_pixels(&pixels, &e.inliers));
         let mut result = result;
         let (mut inliers, mut rms, mut inlier_px, mut correspondences) =
             (inliers, rms, inlier_px, matches.len());
