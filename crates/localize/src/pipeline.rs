@@ -10,6 +10,10 @@
 //!    with left perturbation from the prior, a RANSAC restart when the prior is poor, and the
 //!    validity check (`refined` / `init_only` / `rejected` with a reason).
 //!
+//! With [`LocalizerConfig::confirm`] on (beyond the paper), every registration is then
+//! confirmed against all map points near its pose ([`confirm`](mod@crate::confirm)): refined again from
+//! them, or flagged `unsupported`, `weakly_supported` or `ambiguous`.
+//!
 //! Beyond the paper, a frame that registers nowhere is described again at a lower SURF
 //! threshold and tried once more ([`LocalizerConfig::retry_threshold`]): weakly textured
 //! frames get the features they need, while the typical frame keeps the cheaper detection.
@@ -94,7 +98,7 @@ pub struct LocalizerConfig {
     /// uncertainty than right ones.
     pub weak_max_std_mm: f64,
     /// Every registration is confirmed against all map points near its pose and refined again
-    /// from them ([`crate::confirm`]; beyond the paper). Off by default
+    /// from them ([`confirm`](mod@crate::confirm); beyond the paper). Off by default
     /// ([`ConfirmConfig::standard`] turns it on).
     pub confirm: ConfirmConfig,
 }
@@ -167,7 +171,7 @@ pub enum PoseSource {
     Predicted,
     /// Registered to the map and refined, but not trusted (status `init_only`): too uncertain
     /// (per frame, reason `uncertain`) or not confirmed by the map points near it (reason
-    /// `unsupported` or `ambiguous`).
+    /// `unsupported`, `weakly_supported` or `ambiguous`).
     Registered,
     /// The classified zone's median training pose (the paper's initial pose).
     ZoneMedian,
@@ -557,7 +561,7 @@ impl Localizer {
             result.estimate = c.estimate;
         }
         let status = result.verdict.status;
-        let unsupported = matches!(
+        let kept_registration = matches!(
             result.verdict.reason,
             Some(
                 Reason::Unsupported { .. }
@@ -566,7 +570,7 @@ impl Localizer {
             )
         );
         let source = match status {
-            Status::InitOnly if unsupported => PoseSource::Registered,
+            Status::InitOnly if kept_registration => PoseSource::Registered,
             Status::Refined => PoseSource::Refined,
             Status::InitOnly => PoseSource::ZoneMedian,
             Status::Rejected => PoseSource::None,

@@ -114,7 +114,7 @@ pub struct LocalizeJob {
     /// ([`LocalizerConfig::weak_max_std_mm`]).
     pub weak_max_std_mm: f64,
     /// Confirm every registration against all map points near its pose and refine it again
-    /// from them ([`endoloc_localize::confirm`]); a registration they do not support is
+    /// from them ([`endoloc_localize::confirm`](mod@endoloc_localize::confirm)); a registration they do not support is
     /// `init_only` (reason `unsupported`).
     pub confirm: bool,
     /// Validity: largest RMS reprojection error of the inliers, pixels.
