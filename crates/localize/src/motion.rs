@@ -11,7 +11,16 @@
 //!   [`MotionConfig::velocity_frames`] frames before it (none from a single pose).
 //! - **Prediction** `age = f − f₁` frames later: `T₁ · exp(ξ · d)` with the damped displacement
 //!   `d = Σ_{k<age} λᵏ` (`λ` = [`MotionConfig::damping`]): the scope is assumed to slow down
-//!   when nothing confirms its motion. Poses are `T_wc` (camera-to-world, mm).
+//!   when nothing confirms its motion. With confirmation against the map (`--confirm`,
+//!   [`crate::ConfirmConfig`]) the refined poses behind the velocity are trustworthy enough to
+//!   extrapolate further: the translation `ρ` of `ξ = [ρ; φ]` is damped by
+//!   [`MotionConfig::confirmed_damping`] (1: a scope keeps advancing through a stretch it
+//!   cannot register, where a prediction that stands still falls behind by its speed every
+//!   frame), the rotation `φ` still by `λ` (the view direction wanders and swings back), and a
+//!   velocity faster than the training pass's 95th-percentile step per frame is first scaled
+//!   down to it ([`Gate::max_step_mm`]). Without confirmation a drifting chain of weak
+//!   registrations, each agreeing with the prediction, would feed an undamped prediction its
+//!   own drift. Poses are `T_wc` (camera-to-world, mm).
 //! - **Gate** ([`Gate`]): a registration agrees with the prediction when its camera centre
 //!   lies within `gate_mm + v · age` and its orientation within `gate_deg + ω · age` of it,
 //!   where `v` is [`MotionConfig::gate_mm_per_frame`] or, when the training pass moves faster
@@ -31,6 +40,9 @@ pub struct MotionConfig {
     /// Per-frame damping `λ` of the velocity while no frame is refined, in `[0, 1]`
     /// (0 = hold the last pose, 1 = undamped constant velocity).
     pub damping: f64,
+    /// With confirmation against the map: per-frame damping of the translational velocity
+    /// instead of [`MotionConfig::damping`], in `[0, 1]` (see the module docs).
+    pub confirmed_damping: f64,
     /// The velocity is measured over at most this many frames before the last refined one.
     pub velocity_frames: usize,
     /// Gate on the camera centre: base distance from the prediction, mm.
@@ -59,6 +71,7 @@ impl Default for MotionConfig {
     fn default() -> Self {
         MotionConfig {
             damping: 0.9,
+            confirmed_damping: 1.0,
             velocity_frames: 5,
             gate_mm: 3.0,
             gate_mm_per_frame: 1.0,
@@ -77,8 +90,13 @@ impl MotionConfig {
     /// # Errors
     /// A message naming the first setting out of range.
     pub fn validate(&self) -> Result<(), String> {
-        if !(0.0..=1.0).contains(&self.damping) {
-            return Err(format!("motion.damping = {}; expected 0..=1", self.damping));
+        for (name, v) in [
+            ("damping", self.damping),
+            ("confirmed_damping", self.confirmed_damping),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(format!("motion.{name} = {v}; expected 0..=1"));
+            }
         }
         for (name, v) in [
             ("gate_mm", self.gate_mm),
@@ -108,6 +126,11 @@ pub struct Gate {
     pub deg: f64,
     /// Growth per frame of age, degrees.
     pub deg_per_frame: f64,
+    /// Fastest step of the prediction per frame (the training pass's 95th-percentile step
+    /// between consecutive frames), mm; 0 = no limit.
+    pub max_step_mm: f64,
+    /// The same for the rotation, degrees.
+    pub max_step_deg: f64,
 }
 
 impl Gate {
@@ -120,6 +143,8 @@ impl Gate {
             mm_per_frame: cfg.gate_mm_per_frame.max(step_mm),
             deg: cfg.gate_deg,
             deg_per_frame: cfg.gate_deg_per_frame.max(step_deg),
+            max_step_mm: step_mm,
+            max_step_deg: step_deg,
         }
     }
 }
@@ -207,13 +232,49 @@ impl Track {
     }
 
     /// The prediction for `frame` (after the last refined frame), or `None` without a refined
-    /// frame within `horizon` frames before it.
-    pub fn predict(&self, frame: usize, horizon: usize, cfg: &MotionConfig) -> Option<Prediction> {
+    /// frame within `horizon` frames before it. `confirmed`: the gate of a recording whose
+    /// registrations are confirmed against the map; the translation is then damped by
+    /// [`MotionConfig::confirmed_damping`] and the velocity capped at the step the gate allows
+    /// per frame ([`Gate::max_step_mm`], [`Gate::max_step_deg`]), as the module docs describe.
+    pub fn predict(
+        &self,
+        frame: usize,
+        horizon: usize,
+        cfg: &MotionConfig,
+        confirmed: Option<&Gate>,
+    ) -> Option<Prediction> {
         let (f1, t1) = self.last()?;
         let age = frame.checked_sub(f1).filter(|a| *a >= 1 && *a <= horizon)?;
-        let d: f64 = (0..age).map(|k| cfg.damping.powi(k as i32)).sum();
+        let displacement = |lambda: f64| -> f64 { (0..age).map(|k| lambda.powi(k as i32)).sum() };
+        let xi = self.velocity();
+        let Some(gate) = confirmed else {
+            return Some(Prediction {
+                t_wc: t1 * se3::exp(&(xi * displacement(cfg.damping))),
+                age,
+            });
+        };
+        let (rho, phi) = (xi.fixed_rows::<3>(0), xi.fixed_rows::<3>(3));
+        let mut scale: f64 = 1.0;
+        if gate.max_step_mm > 0.0 && rho.norm() > gate.max_step_mm {
+            scale = scale.min(gate.max_step_mm / rho.norm());
+        }
+        if gate.max_step_deg > 0.0 && phi.norm().to_degrees() > gate.max_step_deg {
+            scale = scale.min(gate.max_step_deg / phi.norm().to_degrees());
+        }
+        let (d_t, d_r) = (
+            scale * displacement(cfg.confirmed_damping),
+            scale * displacement(cfg.damping),
+        );
+        let step = Vector6::new(
+            rho[0] * d_t,
+            rho[1] * d_t,
+            rho[2] * d_t,
+            phi[0] * d_r,
+            phi[1] * d_r,
+            phi[2] * d_r,
+        );
         Some(Prediction {
-            t_wc: t1 * se3::exp(&(self.velocity() * d)),
+            t_wc: t1 * se3::exp(&step),
             age,
         })
     }
@@ -260,13 +321,13 @@ mod tests {
         for f in 0..4 {
             track.push(f, at(f), &cfg);
         }
-        let p = track.predict(6, 60, &cfg).unwrap();
+        let p = track.predict(6, 60, &cfg, None).unwrap();
         assert_eq!(p.age, 3);
         assert!(position_error_mm(&p.t_wc, &at(6)) < 1e-9);
         assert!(orientation_error_deg(&p.t_wc, &at(6)) < 1e-6);
         // Damped: the scope is assumed to slow down.
         let damped = MotionConfig::default();
-        let p = track.predict(6, 60, &damped).unwrap();
+        let p = track.predict(6, 60, &damped, None).unwrap();
         let (from_last, to_truth) = (
             position_error_mm(&p.t_wc, &at(3)),
             position_error_mm(&at(6), &at(3)),
@@ -276,7 +337,42 @@ mod tests {
             "{from_last} vs {to_truth}"
         );
         // Too old: no prediction.
-        assert!(track.predict(100, 60, &cfg).is_none());
+        assert!(track.predict(100, 60, &cfg, None).is_none());
+    }
+
+    #[test]
+    fn confirmed_translation_coasts_rotation_settles_and_a_jump_is_capped() {
+        // The training pass moves 0.5 mm and 1° per frame.
+        let train: Vec<Pose> = (0..20)
+            .map(|f| pose(0.5 * f as f64, (f as f64).to_radians()))
+            .collect();
+        let gate = Gate::new(&MotionConfig::default(), &train);
+        let cfg = MotionConfig::default();
+        let mut track = Track::default();
+        let step = pose(0.4, 0.5f64.to_radians());
+        let at = |f: usize| (0..f).fold(pose(10.0, 0.3), |t, _| t * step);
+        for f in 0..4 {
+            track.push(f, at(f), &cfg);
+        }
+        // 30 frames (12 mm) on: the position keeps up with the scope where a damped one stands
+        // still; the rotation has settled.
+        let p = track.predict(33, 60, &cfg, Some(&gate)).unwrap();
+        let behind = position_error_mm(&p.t_wc, &at(33));
+        let stale = track.predict(33, 60, &cfg, None).unwrap();
+        let stale_behind = position_error_mm(&stale.t_wc, &at(33));
+        assert!(
+            behind < 1.5 && stale_behind > 5.0,
+            "{behind} vs {stale_behind} mm"
+        );
+        let turned = orientation_error_deg(&p.t_wc, &at(3));
+        assert!(turned > 3.0 && turned < 5.0, "{turned}°");
+        // A registration 10 mm off moves the prediction by at most the pass's step per frame.
+        let mut jumped = Track::default();
+        jumped.push(0, pose(0.0, 0.0), &cfg);
+        jumped.push(1, pose(10.0, 0.0), &cfg);
+        let p = jumped.predict(5, 60, &cfg, Some(&gate)).unwrap();
+        let moved = position_error_mm(&p.t_wc, &pose(10.0, 0.0));
+        assert!((moved - 4.0 * gate.max_step_mm).abs() < 1e-6, "{moved} mm");
     }
 
     #[test]

@@ -976,7 +976,10 @@ impl Localizer {
             zone = track.update(&distances)?.zone;
         }
         let motion = &self.cfg.motion;
-        let prediction = state.motion.predict(frame, self.cfg.hold_frames, motion);
+        let confirmed = self.cfg.confirm.is_on().then_some(&self.gate);
+        let prediction = state
+            .motion
+            .predict(frame, self.cfg.hold_frames, motion, confirmed);
         let seen: &LiveState = state;
         let r = self.with_retry(features, retry, times, |f, times| {
             self.live_register(seen, frame, zone, prediction.as_ref(), f, pred, times)

@@ -19,7 +19,9 @@ use endoloc_eval::{
 use endoloc_features::{Feature, SurfConfig};
 use endoloc_geometry::{Pose, Status};
 use endoloc_localize::map_io::load_map;
-use endoloc_localize::{FrameResult, Localizer, LocalizerConfig, RetryFeatures, StageTimes};
+use endoloc_localize::{
+    ConfirmConfig, FrameResult, Localizer, LocalizerConfig, RetryFeatures, StageTimes,
+};
 use endoloc_net::{ZoneClassifier, ZonePrediction, viterbi};
 
 pub(super) use crate::predict::predict_zones;
@@ -307,20 +309,38 @@ pub(super) enum ZoneChoice {
 
 /// Runs our method on cached features and predictions: zone → median pose → matching →
 /// Gauss-Newton → validity, trying `candidate_zones` zones.
+/// How [`run_endoloc`] localizes: the zone choice, the candidate zones per frame and whether
+/// registrations are confirmed against the map ([`endoloc_localize::confirm`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct EndolocRun {
+    pub choice: ZoneChoice,
+    pub candidate_zones: usize,
+    pub confirm: bool,
+}
+
 pub(super) fn run_endoloc(
     model: &Path,
     features: &FeatureCache,
     preds: &[ZonePrediction],
     zone_ms: f64,
-    choice: ZoneChoice,
-    candidate_zones: usize,
+    run: EndolocRun,
     progress: &dyn Progress,
 ) -> Result<Vec<FrameResult>> {
+    let EndolocRun {
+        choice,
+        candidate_zones,
+        confirm,
+    } = run;
     let classifier = ZoneClassifier::load(model)
         .with_context(|| format!("loading model {}", model.display()))?;
     let map = load_map(model)?;
     let cfg = LocalizerConfig {
         candidate_zones,
+        confirm: if confirm {
+            ConfirmConfig::standard()
+        } else {
+            ConfirmConfig::default()
+        },
         surf: Some(features.surf.clone()),
         retry_threshold: Some(features.retry_threshold),
         ..LocalizerConfig::default()

@@ -9,8 +9,9 @@ use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
 
 use super::common::{
-    self, Data, DataArgs, ExperimentReport, FeatureCache, MethodOutput, MethodRow, TrainSpec,
-    ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc, write_and_evaluate,
+    self, Data, DataArgs, EndolocRun, ExperimentReport, FeatureCache, MethodOutput, MethodRow,
+    TrainSpec, ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc,
+    write_and_evaluate,
 };
 use crate::baselines::{self, Regressor};
 use crate::note;
@@ -66,6 +67,10 @@ pub enum Method {
     Endoloc,
     /// Ours live: frames in order, the causal track filter, registration from the last pose.
     EndolocLive,
+    /// Ours per frame, every registration confirmed against the map (`localize --confirm`).
+    EndolocConfirm,
+    /// Ours live, every registration confirmed against the map (`localize --live --confirm`).
+    EndolocLiveConfirm,
     /// Ours with offline Viterbi zone smoothing.
     EndolocViterbi,
     /// Ours with offline track smoothing (forward–backward over training frames and speed).
@@ -97,10 +102,12 @@ impl std::str::FromStr for Method {
 
 impl Method {
     /// Every method, in the table's order.
-    pub const ALL: [Method; 10] = [
+    pub const ALL: [Method; 12] = [
         Method::EndolocPaper,
         Method::Endoloc,
         Method::EndolocLive,
+        Method::EndolocConfirm,
+        Method::EndolocLiveConfirm,
         Method::EndolocViterbi,
         Method::EndolocSmooth,
         Method::Posenet,
@@ -120,6 +127,8 @@ impl Method {
             Method::EndolocPaper => "endoloc-paper",
             Method::Endoloc => "endoloc",
             Method::EndolocLive => "endoloc-live",
+            Method::EndolocConfirm => "endoloc-confirm",
+            Method::EndolocLiveConfirm => "endoloc-live-confirm",
             Method::EndolocViterbi => "endoloc-viterbi",
             Method::EndolocSmooth => "endoloc-smooth",
             Method::Posenet => "posenet",
@@ -136,6 +145,8 @@ impl Method {
             Method::EndolocPaper => "two-step, top zone only (the paper's rule)",
             Method::Endoloc => "two-step, up to 3 candidate zones",
             Method::EndolocLive => "two-step, live: causal track filter and tracking, 3 candidates",
+            Method::EndolocConfirm => "two-step, 3 candidates, registrations confirmed by the map",
+            Method::EndolocLiveConfirm => "two-step, live, registrations confirmed by the map",
             Method::EndolocViterbi => "two-step, offline Viterbi zones, 3 candidates",
             Method::EndolocSmooth => "two-step, offline track-smoothed zones, 3 candidates",
             Method::Posenet => "PoseNet pose regression (Kendall et al. 2015)",
@@ -278,23 +289,27 @@ impl Ctx<'_> {
 
     fn run(&mut self, m: Method) -> Result<MethodOutput> {
         let progress = self.progress;
-        let ours = |choice, candidates| (choice, candidates);
+        let ours = |choice, candidates_zones, confirm| EndolocRun {
+            choice,
+            candidate_zones: candidates_zones,
+            confirm,
+        };
         let setting = match m {
-            Method::EndolocPaper => Some(ours(ZoneChoice::PerFrame, 1)),
-            Method::Endoloc => Some(ours(ZoneChoice::PerFrame, 3)),
-            Method::EndolocLive => Some(ours(ZoneChoice::Live, 3)),
-            Method::EndolocViterbi => Some(ours(ZoneChoice::Viterbi, 3)),
-            Method::EndolocSmooth => Some(ours(ZoneChoice::Smooth, 3)),
+            Method::EndolocPaper => Some(ours(ZoneChoice::PerFrame, 1, false)),
+            Method::Endoloc => Some(ours(ZoneChoice::PerFrame, 3, false)),
+            Method::EndolocLive => Some(ours(ZoneChoice::Live, 3, false)),
+            Method::EndolocConfirm => Some(ours(ZoneChoice::PerFrame, 3, true)),
+            Method::EndolocLiveConfirm => Some(ours(ZoneChoice::Live, 3, true)),
+            Method::EndolocViterbi => Some(ours(ZoneChoice::Viterbi, 3, false)),
+            Method::EndolocSmooth => Some(ours(ZoneChoice::Smooth, 3, false)),
             _ => None,
         };
-        if let Some((choice, candidates)) = setting {
+        if let Some(setting) = setting {
             let surf = load_map(self.model)?.config.surf.clone();
             self.preds()?;
             let features = FeatureCache::get(&mut self.features, &self.data.test, &surf, progress)?;
             let (preds, zone_ms) = self.preds.as_ref().context("zone predictions")?;
-            let results = run_endoloc(
-                self.model, features, preds, *zone_ms, choice, candidates, progress,
-            )?;
+            let results = run_endoloc(self.model, features, preds, *zone_ms, setting, progress)?;
             return Ok(MethodOutput::from_results(
                 &m.name(),
                 m.description(),

@@ -12,8 +12,9 @@ use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
 
 use super::common::{
-    self, Data, DataArgs, ExperimentReport, FeatureCache, MethodOutput, MethodRow, TrainSpec,
-    ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc, write_and_evaluate,
+    self, Data, DataArgs, EndolocRun, ExperimentReport, FeatureCache, MethodOutput, MethodRow,
+    TrainSpec, ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc,
+    write_and_evaluate,
 };
 use crate::progress::Progress;
 
@@ -146,8 +147,11 @@ impl ExpertJob {
                 cache,
                 &preds,
                 zone_ms,
-                ZoneChoice::PerFrame,
-                3,
+                EndolocRun {
+                    choice: ZoneChoice::PerFrame,
+                    candidate_zones: 3,
+                    confirm: false,
+                },
                 progress,
             )?;
             let out = MethodOutput::from_results(name, description, results);

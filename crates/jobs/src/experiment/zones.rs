@@ -12,8 +12,8 @@ use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
 
 use super::common::{
-    self, Data, DataArgs, ExperimentReport, FeatureCache, TrainSpec, ZoneChoice, ensure_map,
-    ensure_model, pose_error, predict_zones, run_endoloc, shell_quote,
+    self, Data, DataArgs, EndolocRun, ExperimentReport, FeatureCache, TrainSpec, ZoneChoice,
+    ensure_map, ensure_model, pose_error, predict_zones, run_endoloc, shell_quote,
 };
 use crate::note;
 use crate::progress::Progress;
@@ -394,8 +394,11 @@ impl ZoneSweepJob {
             cache,
             &preds,
             zone_ms,
-            ZoneChoice::PerFrame,
-            args.candidate_zones,
+            EndolocRun {
+                choice: ZoneChoice::PerFrame,
+                candidate_zones: args.candidate_zones,
+                confirm: false,
+            },
             progress,
         )?;
         let mut pos = Vec::new();
