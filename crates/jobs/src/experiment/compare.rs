@@ -117,8 +117,13 @@ impl Method {
         Method::Retrieval,
     ];
 
+    /// The methods run when none are named: all but the confirmed variants of ours
+    /// (`endoloc-confirm`, `endoloc-live-confirm`), which are run on request.
     fn all() -> Vec<Method> {
-        Self::ALL.to_vec()
+        Self::ALL
+            .into_iter()
+            .filter(|m| !matches!(m, Method::EndolocConfirm | Method::EndolocLiveConfirm))
+            .collect()
     }
 
     /// The method's name (folder name and table row), e.g. `endoloc-live`.

@@ -41,7 +41,7 @@ pub struct Args {
     /// Use this trained Siamese model (with or without a map) instead of training one.
     #[arg(long, value_name = "DIR")]
     model: Option<PathBuf>,
-    /// Methods to run (default: all).
+    /// Methods to run (default: all but endoloc-confirm and endoloc-live-confirm).
     #[arg(long, value_delimiter = ',')]
     methods: Vec<CompareMethod>,
     /// Use an output folder that holds something else.
