@@ -172,7 +172,8 @@ pub struct LocalizeArgs {
     /// Confirm every registration against all map points near its pose (matched in shrinking
     /// windows around their projections) and refine it again from them: sharper poses, and a
     /// registration that few of them support is `init_only` (unsupported) with its registered
-    /// pose (source `registered`).
+    /// pose (source `registered`). Live, the motion model then keeps the translation undamped
+    /// through frames that register nowhere.
     #[arg(long)]
     confirm: bool,
     /// Validity: largest RMS reprojection error of the inliers, pixels.
