@@ -253,26 +253,23 @@ impl Track {
                 age,
             });
         };
-        let (rho, phi) = (xi.fixed_rows::<3>(0), xi.fixed_rows::<3>(3));
-        let mut scale: f64 = 1.0;
-        if gate.max_step_mm > 0.0 && rho.norm() > gate.max_step_mm {
-            scale = scale.min(gate.max_step_mm / rho.norm());
-        }
-        if gate.max_step_deg > 0.0 && phi.norm().to_degrees() > gate.max_step_deg {
-            scale = scale.min(gate.max_step_deg / phi.norm().to_degrees());
-        }
-        let (d_t, d_r) = (
-            scale * displacement(cfg.confirmed_damping),
-            scale * displacement(cfg.damping),
-        );
-        let step = Vector6::new(
-            rho[0] * d_t,
-            rho[1] * d_t,
-            rho[2] * d_t,
-            phi[0] * d_r,
-            phi[1] * d_r,
-            phi[2] * d_r,
-        );
+        // Scale the velocity down to the gate's fastest step (a limit of 0 = none).
+        let ratio = |limit: f64, speed: f64| {
+            if limit > 0.0 && speed > limit {
+                limit / speed
+            } else {
+                1.0
+            }
+        };
+        let scale = ratio(gate.max_step_mm, xi.fixed_rows::<3>(0).norm()).min(ratio(
+            gate.max_step_deg,
+            xi.fixed_rows::<3>(3).norm().to_degrees(),
+        ));
+        let mut step = xi * scale;
+        step.fixed_rows_mut::<3>(0)
+            .scale_mut(displacement(cfg.confirmed_damping));
+        step.fixed_rows_mut::<3>(3)
+            .scale_mut(displacement(cfg.damping));
         Some(Prediction {
             t_wc: t1 * se3::exp(&step),
             age,

@@ -307,8 +307,6 @@ pub(super) enum ZoneChoice {
     Smooth,
 }
 
-/// Runs our method on cached features and predictions: zone → median pose → matching →
-/// Gauss-Newton → validity, trying `candidate_zones` zones.
 /// How [`run_endoloc`] localizes: the zone choice, the candidate zones per frame and whether
 /// registrations are confirmed against the map ([`endoloc_localize::confirm`]).
 #[derive(Debug, Clone, Copy)]
@@ -318,6 +316,8 @@ pub(super) struct EndolocRun {
     pub confirm: bool,
 }
 
+/// Runs our method on cached features and predictions: zone → median pose → matching →
+/// Gauss-Newton → validity, trying `run.candidate_zones` zones.
 pub(super) fn run_endoloc(
     model: &Path,
     features: &FeatureCache,

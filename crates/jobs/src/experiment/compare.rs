@@ -294,9 +294,9 @@ impl Ctx<'_> {
 
     fn run(&mut self, m: Method) -> Result<MethodOutput> {
         let progress = self.progress;
-        let ours = |choice, candidates_zones, confirm| EndolocRun {
+        let ours = |choice, candidate_zones, confirm| EndolocRun {
             choice,
-            candidate_zones: candidates_zones,
+            candidate_zones,
             confirm,
         };
         let setting = match m {
