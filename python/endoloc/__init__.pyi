@@ -218,6 +218,7 @@ def localize(
     track_frames: int = ...,
     recover_frames: int = ...,
     hold_frames: int = ...,
+    classify_every_frame: bool = ...,
     trusted_inliers: int = ...,
     gate_mm: float = ...,
     neighbours: int = ...,
@@ -256,6 +257,8 @@ def localize(
     - ``hold_frames``: Live: the motion model predicts for at most this many frames after
       the last refined one; an `init_only` frame reports the prediction (0: always the zone
       median, no gate).
+    - ``classify_every_frame``: Live: run the zone classifier on every frame, also on
+      frames tracked from the motion model's prediction (default: only when tracking fails).
     - ``trusted_inliers``: Live: a registration with at least this many inliers is trusted
       without the motion model's agreement.
     - ``gate_mm``: Live: base radius of the motion gate around the predicted camera centre,

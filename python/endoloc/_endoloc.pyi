@@ -194,6 +194,7 @@ class Localizer:
         track_frames: int = ...,
         recover_frames: int = ...,
         hold_frames: int = ...,
+        classify_every_frame: bool = ...,
         trusted_inliers: int = ...,
         gate_mm: float = ...,
         neighbours: int = ...,

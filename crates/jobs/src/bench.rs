@@ -2,10 +2,11 @@
 //!
 //! Frames are decoded before each frame's clock starts (a scope's frames arrive decoded) and
 //! fed one by one to [`Localizer::localize_live`]. With `compare`, every frame is also
-//! localized by a second localizer whose SURF detector runs its plain reference loop
-//! ([`endoloc_features::SurfConfig::reference_filters`]); the two alternate which goes first
-//! from frame to frame, so both see the same machine load, and the speed-up is a ratio
-//! measured in one run. Nothing is written.
+//! localized by the plain path: SURF's reference loop
+//! ([`endoloc_features::SurfConfig::reference_filters`]) and the zone classifier on every
+//! frame ([`endoloc_localize::LocalizerConfig::classify_tracked`]). The two alternate which
+//! goes first from frame to frame, so both see the same machine load, and the speed-up is a
+//! ratio measured in one run. Nothing is written.
 
 use std::fmt;
 use std::path::PathBuf;
@@ -29,7 +30,8 @@ pub struct LiveBenchJob {
     pub seq: PathBuf,
     /// Replay only the first this many frames (`None`: all).
     pub frames: Option<usize>,
-    /// Also run the reference SURF loop on every frame, alternating which runs first.
+    /// Also run the plain path (SURF's reference loop, every frame classified) on every frame,
+    /// alternating which runs first.
     pub compare: bool,
     /// Localize as `endoloc localize --live --confirm` does.
     pub confirm: bool,
@@ -54,10 +56,13 @@ pub struct LiveBenchReport {
     pub seq: PathBuf,
     /// The localizer as `endoloc localize --live` runs it.
     pub current: RunSummary,
-    /// The same with the reference SURF loop (with `compare`).
+    /// The plain path: SURF's reference loop, every frame classified (with `compare`).
     pub reference: Option<RunSummary>,
-    /// Frames where the two gave a different status or pose (with `compare`; 0 expected:
-    /// the reference loop finds the same keypoints).
+    /// Frames where the two gave a different status, zone, inlier count or pose (with
+    /// `compare`). The reference loop finds the same keypoints, and a tracked frame's
+    /// classification only feeds zone filters that its refined pose then anchors; they can
+    /// differ only through the track filter's belief in the scope's speed, which an anchor
+    /// keeps.
     pub differing_frames: Option<usize>,
 }
 
@@ -87,6 +92,7 @@ impl LiveBenchJob {
                     reference_filters: true,
                     ..cfg.test_surf(map_surf)
                 });
+                cfg.classify_tracked = true;
             })?;
             Some(localizer.with_mask(mask))
         } else {
@@ -158,7 +164,7 @@ impl fmt::Display for LiveBenchReport {
         };
         row(f, "current", &self.current)?;
         if let Some(r) = &self.reference {
-            row(f, "reference SURF loop", r)?;
+            row(f, "plain path", r)?;
             let ratio = |a: f64, b: f64| if a > 0.0 { b / a } else { f64::NAN };
             let (c, rm) = (self.current.median_stage_ms(), r.median_stage_ms());
             write!(

@@ -72,6 +72,13 @@ pub struct LocalizerConfig {
     pub hold_frames: usize,
     /// Live mode only: the motion model and its gate ([`MotionConfig`]).
     pub motion: MotionConfig,
+    /// Live mode only: run the zone classifier on every frame. Off (default): a frame that
+    /// registers from the motion model's prediction ([`LocalizerConfig::track_frames`]) is
+    /// not classified — its zone is the one its pose lies in, its `zone_score` is NaN — and
+    /// the classifier runs only when tracking fails. The zone filters are anchored at every
+    /// refined pose, so what a tracked frame's classification would have told them is
+    /// overwritten at once; skipping it saves the network's time on most frames.
+    pub classify_tracked: bool,
     /// A frame that registers nowhere with features at the test threshold is described again
     /// at this lower SURF threshold and tried once more (beyond the paper; its time counts in
     /// the frame's SURF time). `None` (default): the map's threshold. `Some(0.0)`, or a value
@@ -116,6 +123,7 @@ impl Default for LocalizerConfig {
             recover_frames: 300,
             hold_frames: 60,
             motion: MotionConfig::default(),
+            classify_tracked: false,
             retry_threshold: None,
             uncertainty_scale: 3.0,
             max_std_mm: f64::INFINITY,
@@ -203,7 +211,9 @@ impl std::fmt::Display for PoseSource {
 pub struct FrameResult {
     /// Zone used (after temporal filtering, if any).
     pub zone: usize,
-    /// The classifier's score of that zone (descriptor distance, lower = better).
+    /// The classifier's score of that zone (descriptor distance, lower = better); NaN when the
+    /// frame was not classified (live, tracked from the motion model's prediction: see
+    /// [`LocalizerConfig::classify_tracked`]).
     pub zone_score: f32,
     /// `refined`, `init_only` or `rejected`.
     pub status: Status,
@@ -307,6 +317,25 @@ impl<'a> From<Option<RetryFeatures<'a>>> for Retry<'a> {
     fn from(r: Option<RetryFeatures<'a>>) -> Self {
         r.map_or(Retry::None, Retry::Features)
     }
+}
+
+/// Where a live frame's zone prediction comes from.
+#[derive(Clone, Copy)]
+enum Zones<'a> {
+    /// Classified beforehand.
+    Ready(&'a ZonePrediction),
+    /// Classified from the image when needed.
+    Image(&'a image::GrayImage),
+}
+
+/// The registration of a live frame from the motion model's prediction.
+enum Tracked {
+    /// No recent prediction (or it lies outside every zone): not tried.
+    NotTried,
+    /// Refined, and agrees with the prediction.
+    Registered(FrameResult),
+    /// Tried and failed: the matching and refinement time it took.
+    Failed(StageTimes),
 }
 
 impl Localizer {
@@ -636,7 +665,7 @@ impl Localizer {
             surf_ms: ms(t),
             ..Default::default()
         };
-        let r = self.with_retry(&features, Retry::Image(img), times, |f, times| {
+        let r = self.with_retry(&features, Retry::Image(img), times, |f, times, _| {
             self.localize_candidates(f, pred, chosen, &[], times)
         })?;
         Ok(self.trusted_alone(r))
@@ -658,7 +687,7 @@ impl Localizer {
         chosen: usize,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
-        let r = self.with_retry(features, retry.into(), times, |f, times| {
+        let r = self.with_retry(features, retry.into(), times, |f, times, _| {
             self.localize_candidates(f, pred, chosen, &[], times)
         })?;
         Ok(self.trusted_alone(r))
@@ -691,16 +720,17 @@ impl Localizer {
     }
 
     /// Runs `attempt` on `features`; when that does not give `refined` and a retry is
-    /// configured, on the retry features too (detected now from an image if need be). The
+    /// configured, on the retry features too (detected now from an image if need be; the
+    /// attempt's last argument says which). The
     /// result carries the time of both attempts; when neither registers, the retry's verdict.
     fn with_retry(
         &self,
         features: &[Feature],
         retry: Retry<'_>,
         times: StageTimes,
-        attempt: impl Fn(&[Feature], StageTimes) -> Result<FrameResult, LocalizeError>,
+        attempt: impl Fn(&[Feature], StageTimes, bool) -> Result<FrameResult, LocalizeError>,
     ) -> Result<FrameResult, LocalizeError> {
-        let first = attempt(features, times)?;
+        let first = attempt(features, times, false)?;
         if first.status == Status::Refined {
             return Ok(first);
         }
@@ -717,7 +747,7 @@ impl Localizer {
             surf_ms: times.surf_ms + dense_ms,
             ..times
         };
-        let mut second = attempt(&dense, times)?;
+        let mut second = attempt(&dense, times, true)?;
         second.times.matching_ms += first.times.matching_ms;
         second.times.refine_ms += first.times.refine_ms;
         Ok(second)
@@ -911,12 +941,13 @@ impl Localizer {
         }
     }
 
-    /// Localizes the next frame of a live stream (frames in order, one at a time): classify,
-    /// fold the prediction into the causal filters (track filter, zone HMM), predict the pose
-    /// from the recent refined frames ([`crate::motion`]), register from that prediction
-    /// first when it is recent ([`LocalizerConfig::track_frames`]), otherwise (or if that
-    /// fails) from the filtered zone and the candidate zones; then gate the registration
-    /// against the prediction.
+    /// Localizes the next frame of a live stream (frames in order, one at a time): predict the
+    /// pose from the recent refined frames ([`crate::motion`]) and register from that
+    /// prediction when it is recent ([`LocalizerConfig::track_frames`]); otherwise (or if
+    /// that fails) classify, fold the prediction into the causal filters (track filter, zone
+    /// HMM) and register from the filtered zone and the candidate zones; then gate the
+    /// registration against the prediction. [`LocalizerConfig::classify_tracked`] classifies
+    /// every frame.
     ///
     /// # Errors
     /// As [`Localizer::localize`].
@@ -926,21 +957,23 @@ impl Localizer {
         img: &image::GrayImage,
     ) -> Result<FrameResult, LocalizeError> {
         let t = Instant::now();
-        let pred = self.classify(img)?;
-        let zone_ms = ms(t);
-        let t = Instant::now();
         let features = self.surf.detect_and_describe(img)?;
         let times = StageTimes {
-            zone_ms,
             surf_ms: ms(t),
             ..Default::default()
         };
-        self.live_step(state, &features, Retry::Image(img), &pred, times)
+        self.live_step(
+            state,
+            &features,
+            Retry::Image(img),
+            Zones::Image(img),
+            times,
+        )
     }
 
     /// [`Localizer::localize_live`] for a frame already classified (`pred`, not yet folded
-    /// into the filter) and described (`features`, and `retry` as in
-    /// [`Localizer::localize_features`]).
+    /// into the filter; `times.zone_ms` its time, reported only when the frame needs it) and
+    /// described (`features`, and `retry` as in [`Localizer::localize_features`]).
     ///
     /// # Errors
     /// As [`Localizer::localize_features`].
@@ -952,38 +985,81 @@ impl Localizer {
         pred: &ZonePrediction,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
-        self.live_step(state, features, retry.into(), pred, times)
+        self.live_step(state, features, retry.into(), Zones::Ready(pred), times)
     }
 
-    /// One live frame: fold `pred` into the filter, predict, register (with the retry), gate
-    /// the registration against the prediction, report the prediction for a frame without a
+    /// One live frame: predict, register from the prediction, and when that fails classify,
+    /// fold the zone prediction into the filters and register (with the retry); gate the
+    /// registration against the prediction, report the prediction for a frame without a
     /// trusted registration, and remember a refined pose.
     fn live_step(
         &self,
         state: &mut LiveState,
         features: &[Feature],
         retry: Retry<'_>,
-        pred: &ZonePrediction,
+        zones: Zones<'_>,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
         let frame = state.frame;
         state.frame += 1;
-        let mut zone = state.filter.update(pred);
-        if let Some(track) = &mut state.track
-            && !pred.descriptor.is_empty()
-        {
-            let distances = self.classifier.frame_distances(&pred.descriptor)?;
-            zone = track.update(&distances)?.zone;
-        }
         let motion = &self.cfg.motion;
         let confirmed = self.cfg.confirm.is_on().then_some(&self.gate);
         let prediction = state
             .motion
             .predict(frame, self.cfg.hold_frames, motion, confirmed);
-        let seen: &LiveState = state;
-        let r = self.with_retry(features, retry, times, |f, times| {
-            self.live_register(seen, frame, zone, prediction.as_ref(), f, pred, times)
-        })?;
+        let tracked = if self.cfg.classify_tracked {
+            Tracked::NotTried
+        } else {
+            let untimed = StageTimes {
+                zone_ms: 0.0,
+                ..times
+            };
+            self.track(prediction.as_ref(), features, None, untimed)?
+        };
+        let r = match tracked {
+            Tracked::Registered(r) => r,
+            tracked => {
+                let (pred, zone_ms) = match zones {
+                    Zones::Ready(p) => (Cow::Borrowed(p), times.zone_ms),
+                    Zones::Image(img) => {
+                        let t = Instant::now();
+                        (Cow::Owned(self.classify(img)?), ms(t))
+                    }
+                };
+                let times = StageTimes { zone_ms, ..times };
+                let mut zone = state.filter.update(&pred);
+                if let Some(track) = &mut state.track
+                    && !pred.descriptor.is_empty()
+                {
+                    let distances = self.classifier.frame_distances(&pred.descriptor)?;
+                    zone = track.update(&distances)?.zone;
+                }
+                let seen: &LiveState = state;
+                let tried = match tracked {
+                    Tracked::Failed(spent) => Some(spent),
+                    _ => None,
+                };
+                let mut r = self.with_retry(features, retry, times, |f, times, is_retry| {
+                    // The first features were already tried from the prediction.
+                    let skip = if is_retry { None } else { tried };
+                    self.live_register(
+                        seen,
+                        frame,
+                        zone,
+                        prediction.as_ref(),
+                        f,
+                        &pred,
+                        times,
+                        skip,
+                    )
+                })?;
+                if let Some(spent) = tried {
+                    r.times.matching_ms += spent.matching_ms;
+                    r.times.refine_ms += spent.refine_ms;
+                }
+                r
+            }
+        };
         let mut r = self.disambiguate(r, prediction.as_ref());
         if r.status == Status::Refined
             && let Some(t_wc) = r.t_wc
@@ -1050,9 +1126,43 @@ impl Localizer {
         r.orientation_std_deg = f64::NAN;
     }
 
+    /// Registration from the motion model's `prediction` when it is recent
+    /// ([`LocalizerConfig::track_frames`]): guided matching in the zone the predicted pose
+    /// lies in; it counts only when refined and in agreement with the prediction. `pred`
+    /// gives the zone's score (NaN without it).
+    fn track(
+        &self,
+        prediction: Option<&Prediction>,
+        features: &[Feature],
+        pred: Option<&ZonePrediction>,
+        times: StageTimes,
+    ) -> Result<Tracked, LocalizeError> {
+        let recent =
+            prediction.filter(|p| self.cfg.track_frames > 0 && p.age <= self.cfg.track_frames);
+        let Some((p, z)) = recent.and_then(|p| Some((p, self.classifier.truth_zone(&p.t_wc)?)))
+        else {
+            return Ok(Tracked::NotTried);
+        };
+        let score = pred
+            .and_then(|pred| pred.zone_scores.get(z).copied())
+            .unwrap_or(f32::NAN);
+        let m = &self.cfg.motion;
+        let radius = m.search_px + m.search_px_per_frame * p.age as f64;
+        let r = self.register_from(features, z, &p.t_wc, Some(radius), score, times)?;
+        let r = self.disambiguate(r, Some(p));
+        if r.status == Status::Refined && r.t_wc.is_some_and(|t| p.compare(&t, &self.gate).agrees) {
+            return Ok(Tracked::Registered(r));
+        }
+        Ok(Tracked::Failed(StageTimes {
+            matching_ms: r.times.matching_ms,
+            refine_ms: r.times.refine_ms,
+            ..StageTimes::default()
+        }))
+    }
+
     /// Registration of live frame `frame` (filtered zone `zone`): from the motion model's
-    /// prediction when it is recent, else the candidate zones plus the zones around the last
-    /// refined pose.
+    /// prediction when it is recent (unless `tracked` says that was already tried, and
+    /// failed), else the candidate zones plus the zones around the last refined pose.
     #[allow(clippy::too_many_arguments)]
     fn live_register(
         &self,
@@ -1063,25 +1173,15 @@ impl Localizer {
         features: &[Feature],
         pred: &ZonePrediction,
         times: StageTimes,
+        tracked: Option<StageTimes>,
     ) -> Result<FrameResult, LocalizeError> {
-        let recent =
-            prediction.filter(|p| self.cfg.track_frames > 0 && p.age <= self.cfg.track_frames);
         let mut spent = StageTimes::default();
-        if let Some(p) = recent
-            && let Some(z) = self.classifier.truth_zone(&p.t_wc)
-        {
-            let score = pred.zone_scores.get(z).copied().unwrap_or(f32::NAN);
-            let m = &self.cfg.motion;
-            let radius = m.search_px + m.search_px_per_frame * p.age as f64;
-            let r = self.register_from(features, z, &p.t_wc, Some(radius), score, times)?;
-            let r = self.disambiguate(r, Some(p));
-            if r.status == Status::Refined
-                && r.t_wc.is_some_and(|t| p.compare(&t, &self.gate).agrees)
-            {
-                return Ok(r);
+        if tracked.is_none() {
+            match self.track(prediction, features, Some(pred), times)? {
+                Tracked::Registered(r) => return Ok(r),
+                Tracked::Failed(s) => spent = s,
+                Tracked::NotTried => {}
             }
-            spent.matching_ms += r.times.matching_ms;
-            spent.refine_ms += r.times.refine_ms;
         }
         let extra: Vec<usize> = match state.motion.last() {
             Some((at, pose))

@@ -9,6 +9,7 @@
 //!   the truth than the last refined pose held still;
 //! - live, a registration far from the prediction with few inliers (a frame from another
 //!   zone) is not `refined`;
+//! - live, frames tracked from the prediction skip the classifier without changing a pose;
 //! - a frame with too few features at the test threshold registers with the retry features;
 //! - confirmation against the map points near the registered pose sharpens right poses,
 //!   pulls a pose 3 mm off back to the truth and refuses a pose that another stretch's
@@ -260,6 +261,58 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
         "without tracking {untracked} frames refined in a wrong zone (tracking: {tracked})"
     );
     assert!(errs.iter().all(|&e| e < 20.0), "tracked errors {errs:?}");
+
+    // A frame registered from the motion model's prediction is not classified (zone score
+    // NaN, no zone time); classifying every frame changes no status and no pose, since each
+    // refined pose anchors the zone filters.
+    let run_classifying = |classify_tracked: bool| -> Vec<FrameResult> {
+        let loc = localizer(
+            f,
+            LocalizerConfig {
+                classify_tracked,
+                ..LocalizerConfig::default()
+            },
+        );
+        let mut state = loc.live_state();
+        let times = StageTimes {
+            zone_ms: 1.0,
+            ..StageTimes::default()
+        };
+        (0..live_frames)
+            .map(|i| {
+                loc.localize_live_features(
+                    &mut state,
+                    &features[i],
+                    None,
+                    &predict(wrong(i)),
+                    times,
+                )
+                .unwrap()
+            })
+            .collect()
+    };
+    let (lazy, every) = (run_classifying(false), run_classifying(true));
+    let unclassified = lazy.iter().filter(|r| r.zone_score.is_nan()).count();
+    assert!(
+        unclassified * 4 >= live_frames,
+        "only {unclassified} of {live_frames} frames tracked without the classifier"
+    );
+    for (i, (a, b)) in lazy.iter().zip(&every).enumerate() {
+        assert_eq!((a.status, a.t_wc), (b.status, b.t_wc), "frame {i}");
+        assert!(
+            b.zone_score.is_finite() && b.times.zone_ms == 1.0,
+            "frame {i}"
+        );
+        if a.zone_score.is_nan() {
+            assert_eq!(
+                (a.status, a.times.zone_ms),
+                (Status::Refined, 0.0),
+                "frame {i}"
+            );
+        } else {
+            assert_eq!(a.times.zone_ms, 1.0, "frame {i}");
+        }
+    }
 }
 
 /// A prediction with `zone` first and `second` next.

@@ -201,10 +201,12 @@ impl PyFrameResult {
     fn zone(&self) -> Option<usize> {
         self.result.has_zone().then_some(self.result.zone)
     }
-    /// The classifier's score of that zone (descriptor distance, lower = better).
+    /// The classifier's score of that zone (descriptor distance, lower = better); ``None``
+    /// when the frame was not classified (live, tracked from the motion model's prediction).
     #[getter]
     fn zone_score(&self) -> Option<f32> {
-        self.result.has_zone().then_some(self.result.zone_score)
+        (self.result.has_zone() && self.result.zone_score.is_finite())
+            .then_some(self.result.zone_score)
     }
     /// Where the pose comes from: ``refined``, ``predicted`` (live motion model),
     /// ``zone_median`` or ``none``.
@@ -303,6 +305,7 @@ const LOCALIZER_OPTIONS: &[&str] = &[
     "track_frames",
     "recover_frames",
     "hold_frames",
+    "classify_every_frame",
     "trusted_inliers",
     "gate_mm",
     "neighbours",

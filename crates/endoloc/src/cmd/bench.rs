@@ -19,10 +19,12 @@ enum What {
 
 /// Replay a sequence as a live stream (frames in order, each decoded before its clock
 /// starts) through `localize --live` and print the median time per stage, the p95 per frame
-/// and the fraction refined. By default every frame is also localized with SURF's plain
-/// reference loop (filter responses sample by sample at every level), the two alternating
-/// which runs first, so the speed-up is a ratio measured in one run on one machine; both
-/// must give the same result on every frame. Nothing is written.
+/// and the fraction refined. By default every frame is also localized by the plain path —
+/// SURF's reference loop (filter responses sample by sample at every level) and the zone
+/// classifier on every frame, where the current path classifies only the frames it cannot
+/// track — the two alternating which runs first, so the speed-up is a ratio measured in one
+/// run on one machine. The number of frames whose result differs is printed. Nothing is
+/// written.
 ///
 /// Examples:
 ///
@@ -41,7 +43,7 @@ struct LiveArgs {
     /// Replay only the first N frames.
     #[arg(long, value_name = "N")]
     frames: Option<usize>,
-    /// Time the current localizer alone (no reference run).
+    /// Time the current localizer alone (no plain-path run).
     #[arg(long)]
     no_compare: bool,
     /// Localize as `endoloc localize --live --confirm` does.

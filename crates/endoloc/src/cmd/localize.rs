@@ -129,6 +129,11 @@ pub struct LocalizeArgs {
     /// 0: always the zone median, no gate.
     #[arg(long, default_value_t = LocalizeJob::default().hold_frames)]
     hold_frames: usize,
+    /// Live mode: run the zone classifier on every frame. By default a frame registered from
+    /// the motion model's prediction is not classified (its zone is the one its pose lies in,
+    /// its zone score empty in frames.csv): the classifier runs only when tracking fails.
+    #[arg(long)]
+    classify_every_frame: bool,
     /// Live mode: a registration with at least this many inliers is trusted without the
     /// motion model's agreement (fewer: it must agree with the prediction, or be confirmed by
     /// the next frame's registration).
@@ -236,6 +241,7 @@ impl From<LocalizeArgs> for LocalizeJob {
             track_frames: a.track_frames,
             recover_frames: a.recover_frames,
             hold_frames: a.hold_frames,
+            classify_every_frame: a.classify_every_frame,
             trusted_inliers: a.trusted_inliers,
             gate_mm: a.gate_mm,
             neighbours: a.neighbours,

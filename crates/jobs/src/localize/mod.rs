@@ -90,6 +90,9 @@ pub struct LocalizeJob {
     /// Live: the motion model predicts for at most this many frames after the last refined
     /// one; an `init_only` frame reports the prediction (0: always the zone median, no gate).
     pub hold_frames: usize,
+    /// Live: run the zone classifier on every frame, also on frames tracked from the motion
+    /// model's prediction ([`LocalizerConfig::classify_tracked`]).
+    pub classify_every_frame: bool,
     /// Live: a registration with at least this many inliers is trusted without the motion
     /// model's agreement.
     pub trusted_inliers: usize,
@@ -144,6 +147,7 @@ impl Default for LocalizeJob {
             track_frames: cfg.track_frames,
             recover_frames: cfg.recover_frames,
             hold_frames: cfg.hold_frames,
+            classify_every_frame: cfg.classify_tracked,
             trusted_inliers: cfg.motion.trusted_inliers,
             gate_mm: cfg.motion.gate_mm,
             neighbours: cfg.neighbour_zones,
@@ -216,6 +220,7 @@ impl LocalizeJob {
             track_frames: self.track_frames,
             recover_frames: self.recover_frames,
             hold_frames: self.hold_frames,
+            classify_tracked: self.classify_every_frame,
             motion: MotionConfig {
                 trusted_inliers: self.trusted_inliers,
                 gate_mm: self.gate_mm,

@@ -227,7 +227,7 @@ pub fn frame_record(frame: usize, r: &FrameResult) -> FrameRecord {
     FrameRecord {
         frame,
         zone: r.has_zone().then_some(r.zone),
-        zone_score: r.has_zone().then_some(r.zone_score as f64),
+        zone_score: (r.has_zone() && r.zone_score.is_finite()).then_some(f64::from(r.zone_score)),
         status: r.status,
         reason: r
             .reason
