@@ -3,8 +3,9 @@
 //! Frames are decoded before each frame's clock starts (a scope's frames arrive decoded) and
 //! fed one by one to [`Localizer::localize_live`]. With `compare`, every frame is also
 //! localized by the plain path: SURF's reference loop
-//! ([`endoloc_features::SurfConfig::reference_filters`]) and the zone classifier on every
-//! frame ([`endoloc_localize::LocalizerConfig::classify_tracked`]). The two alternate which
+//! ([`endoloc_features::SurfConfig::reference_filters`]), the zone classifier on every frame
+//! ([`endoloc_localize::LocalizerConfig::classify_tracked`]) and brute-force matching of
+//! tracked frames ([`endoloc_localize::MotionConfig::search_px`] 0). The two alternate which
 //! goes first from frame to frame, so both see the same machine load, and the speed-up is a
 //! ratio measured in one run. Nothing is written.
 
@@ -30,8 +31,8 @@ pub struct LiveBenchJob {
     pub seq: PathBuf,
     /// Replay only the first this many frames (`None`: all).
     pub frames: Option<usize>,
-    /// Also run the plain path (SURF's reference loop, every frame classified) on every frame,
-    /// alternating which runs first.
+    /// Also run the plain path (SURF's reference loop, every frame classified, tracked frames
+    /// matched by brute force) on every frame, alternating which runs first.
     pub compare: bool,
     /// Localize as `endoloc localize --live --confirm` does.
     pub confirm: bool,
@@ -56,13 +57,11 @@ pub struct LiveBenchReport {
     pub seq: PathBuf,
     /// The localizer as `endoloc localize --live` runs it.
     pub current: RunSummary,
-    /// The plain path: SURF's reference loop, every frame classified (with `compare`).
+    /// The plain path: SURF's reference loop, every frame classified, tracked frames matched
+    /// by brute force (with `compare`).
     pub reference: Option<RunSummary>,
     /// Frames where the two gave a different status, zone, inlier count or pose (with
-    /// `compare`). The reference loop finds the same keypoints, and a tracked frame's
-    /// classification only feeds zone filters that its refined pose then anchors; they can
-    /// differ only through the track filter's belief in the scope's speed, which an anchor
-    /// keeps.
+    /// `compare`): guided matching finds other (more) correspondences than brute force.
     pub differing_frames: Option<usize>,
 }
 
@@ -93,6 +92,7 @@ impl LiveBenchJob {
                     ..cfg.test_surf(map_surf)
                 });
                 cfg.classify_tracked = true;
+                cfg.motion.search_px = 0.0;
             })?;
             Some(localizer.with_mask(mask))
         } else {

@@ -61,7 +61,8 @@ pub struct MotionConfig {
     /// registration.
     pub trusted_inliers: usize,
     /// Guided matching from the prediction: a map point competes for the features within
-    /// this many pixels of its projection ([`crate::guided`]).
+    /// this many pixels of its projection ([`crate::guided`]). 0: brute-force matching
+    /// against the predicted zone's map points, as for an untracked frame.
     pub search_px: f64,
     /// Growth of the search radius per frame of the prediction's age, pixels.
     pub search_px_per_frame: f64,

@@ -1147,8 +1147,9 @@ impl Localizer {
             .and_then(|pred| pred.zone_scores.get(z).copied())
             .unwrap_or(f32::NAN);
         let m = &self.cfg.motion;
-        let radius = m.search_px + m.search_px_per_frame * p.age as f64;
-        let r = self.register_from(features, z, &p.t_wc, Some(radius), score, times)?;
+        let radius =
+            (m.search_px > 0.0).then(|| m.search_px + m.search_px_per_frame * p.age as f64);
+        let r = self.register_from(features, z, &p.t_wc, radius, score, times)?;
         let r = self.disambiguate(r, Some(p));
         if r.status == Status::Refined && r.t_wc.is_some_and(|t| p.compare(&t, &self.gate).agrees) {
             return Ok(Tracked::Registered(r));

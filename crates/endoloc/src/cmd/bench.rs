@@ -20,11 +20,12 @@ enum What {
 /// Replay a sequence as a live stream (frames in order, each decoded before its clock
 /// starts) through `localize --live` and print the median time per stage, the p95 per frame
 /// and the fraction refined. By default every frame is also localized by the plain path —
-/// SURF's reference loop (filter responses sample by sample at every level) and the zone
-/// classifier on every frame, where the current path classifies only the frames it cannot
-/// track — the two alternating which runs first, so the speed-up is a ratio measured in one
-/// run on one machine. The number of frames whose result differs is printed. Nothing is
-/// written.
+/// SURF's reference loop (filter responses sample by sample at every level), the zone
+/// classifier on every frame (the current path classifies only the frames it cannot track)
+/// and brute-force matching of tracked frames (the current path matches them guided by the
+/// predicted pose) — the two alternating which runs first, so the speed-up is a ratio
+/// measured in one run on one machine. The number of frames whose result differs is
+/// printed. Nothing is written.
 ///
 /// Examples:
 ///
