@@ -10,6 +10,7 @@
 //! then normalised to unit L2 length. The overlap and double weighting make it more robust to
 //! small shifts than the non-overlapping 20σ window of Bay et al.
 
+use std::f32::consts::SQRT_2;
 use std::sync::OnceLock;
 
 use crate::integral::{IntegralImage, round_i64};
@@ -65,19 +66,29 @@ pub(crate) fn describe(
     // Rotated Haar responses on the 24 × 24 sample grid.
     let mut du = [0.0f32; GRID * GRID];
     let mut dv = [0.0f32; GRID * GRID];
+    // Without a mask, and with the whole grid inside the image (most keypoints), no sample
+    // needs a check.
+    let inside = mask.is_none() && ii.contains_samples(x, y, 11.5 * SQRT_2 * scale, size);
     for mv in 0..GRID {
         let v = (mv as f32 - 11.5) * scale;
         for mu in 0..GRID {
             let u = (mu as f32 - 11.5) * scale;
             let px = x + u * cos - v * sin;
             let py = y + u * sin + v * cos;
-            if mask.is_some_and(|m| !m.contains_disc(px, py, reach)) {
-                continue;
-            }
-            if let Some((dx, dy)) = ii.haar(px, py, size) {
-                du[mv * GRID + mu] = dx * cos + dy * sin;
-                dv[mv * GRID + mu] = -dx * sin + dy * cos;
-            }
+            let (dx, dy) = if inside {
+                // SAFETY: every sample of the grid lies inside the image (`contains_samples`).
+                unsafe { ii.haar_inside(px, py, size) }
+            } else {
+                if mask.is_some_and(|m| !m.contains_disc(px, py, reach)) {
+                    continue;
+                }
+                match ii.haar(px, py, size) {
+                    Some(r) => r,
+                    None => continue,
+                }
+            };
+            du[mv * GRID + mu] = dx * cos + dy * sin;
+            dv[mv * GRID + mu] = -dx * sin + dy * cos;
         }
     }
     let w = weights();

@@ -133,23 +133,58 @@ impl IntegralImage {
         // The box covers pixels px−half ..= px+half−1, centred at px − 0.5 ≈ x.
         let px = floor_i64(x + 1.0);
         let py = floor_i64(y + 1.0);
-        let (x0, y0) = (px - half, py - half);
-        let (x1, y1) = (px + half, py + half);
-        if x0 < 0 || y0 < 0 || x1 > self.width as i64 || y1 > self.height as i64 {
+        if px - half < 0
+            || py - half < 0
+            || px + half > self.width as i64
+            || py + half > self.height as i64
+        {
             return None;
         }
+        // SAFETY: the box's corners lie in the table, checked just above.
+        Some(unsafe { self.haar_corners(px as usize, py as usize, half as usize) })
+    }
+
+    /// [`IntegralImage::haar`] for a wavelet that lies inside the image, e.g. one of a
+    /// keypoint's samples when [`IntegralImage::contains_samples`] says they all do.
+    ///
+    /// # Safety
+    /// The wavelet must lie inside the image: `haar(x, y, size)` is `Some`.
+    #[inline(always)]
+    pub(crate) unsafe fn haar_inside(&self, x: f32, y: f32, size: i64) -> (f32, f32) {
+        let half = size / 2;
+        let (px, py) = (floor_i64(x + 1.0), floor_i64(y + 1.0));
+        debug_assert!(self.haar(x, y, size).is_some());
+        // SAFETY: the caller guarantees the box lies inside the table.
+        unsafe { self.haar_corners(px as usize, py as usize, half as usize) }
+    }
+
+    /// Whether every wavelet of side `size` centred within `radius` pixels of `(x, y)` lies
+    /// inside the image (with a pixel to spare for rounding).
+    #[inline]
+    pub(crate) fn contains_samples(&self, x: f32, y: f32, radius: f32, size: i64) -> bool {
+        let r = radius + (size / 2) as f32 + 2.0;
+        x - r >= 0.0 && y - r >= 0.0 && x + r <= self.width as f32 && y + r <= self.height as f32
+    }
+
+    /// The Haar responses from the nine corners around `(px, py)` at distance `half`.
+    ///
+    /// # Safety
+    /// `px ± half ∈ 0..=width` and `py ± half ∈ 0..=height`.
+    #[inline(always)]
+    unsafe fn haar_corners(&self, px: usize, py: usize, half: usize) -> (f32, f32) {
         let s = self.stride();
-        let (x0, xm, x1) = (x0 as usize, px as usize, x1 as usize);
-        let (r0, rm, r1) = (y0 as usize * s, py as usize * s, y1 as usize * s);
-        let d = &self.data;
-        let (a, b, c) = (d[r0 + x0], d[r0 + xm], d[r0 + x1]);
-        let (e, g) = (d[rm + x0], d[rm + x1]);
-        let (h, i, j) = (d[r1 + x0], d[r1 + xm], d[r1 + x1]);
+        let (x0, xm, x1) = (px - half, px, px + half);
+        let (r0, rm, r1) = ((py - half) * s, py * s, (py + half) * s);
+        // SAFETY: every index is a corner inside the table, by the caller's guarantee.
+        let at = |k: usize| unsafe { *self.data.get_unchecked(k) };
+        let (a, b, c) = (at(r0 + x0), at(r0 + xm), at(r0 + x1));
+        let (e, g) = (at(rm + x0), at(rm + x1));
+        let (h, i, j) = (at(r1 + x0), at(r1 + xm), at(r1 + x1));
         let left = i - b - h + a;
         let right = j - c - i + b;
         let top = g - c - e + a;
         let bottom = j - g - h + e;
-        Some(((right - left) as f32, (bottom - top) as f32))
+        ((right - left) as f32, (bottom - top) as f32)
     }
 }
 
@@ -177,6 +212,31 @@ mod tests {
         // Clipped: only the inside part counts.
         assert_eq!(ii.box_sum(-5, -5, 1, 1), f64::from(px[0]));
         assert_eq!(ii.box_sum(20, 0, 30, 7), 0.0);
+    }
+
+    #[test]
+    fn a_disc_said_to_be_inside_has_every_wavelet_inside() {
+        let (w, h) = (60usize, 40usize);
+        let ii = IntegralImage::from_u8(&vec![9u8; w * h], w, h);
+        let mut inside = 0;
+        for k in 0..4000 {
+            let (x, y) = ((k * 37 % 600) as f32 / 10.0, (k * 53 % 400) as f32 / 10.0);
+            let radius = (k % 13) as f32 * 0.9;
+            let size = 2 * (1 + (k % 5) as i64);
+            if !ii.contains_samples(x, y, radius, size) {
+                continue;
+            }
+            inside += 1;
+            for a in 0..32 {
+                let t = a as f32 * std::f32::consts::TAU / 32.0;
+                let (sx, sy) = (x + radius * t.cos(), y + radius * t.sin());
+                assert!(
+                    ii.haar(sx, sy, size).is_some(),
+                    "{x} {y} r {radius} size {size}"
+                );
+            }
+        }
+        assert!(inside > 100, "{inside}");
     }
 
     #[test]
