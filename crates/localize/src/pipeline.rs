@@ -1148,7 +1148,7 @@ impl Localizer {
             .unwrap_or(f32::NAN);
         let m = &self.cfg.motion;
         let radius =
-            (m.search_px > 0.0).then(|| m.search_px + m.search_px_per_frame * p.age as f64);
+            (m.search_px > 0.0).then_some(m.search_px + m.search_px_per_frame * p.age as f64);
         let r = self.register_from(features, z, &p.t_wc, radius, score, times)?;
         let r = self.disambiguate(r, Some(p));
         if r.status == Status::Refined && r.t_wc.is_some_and(|t| p.compare(&t, &self.gate).agrees) {
