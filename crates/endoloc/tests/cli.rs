@@ -524,26 +524,33 @@ fn every_method_and_experiment_writes_its_outputs() {
         );
         assert_eq!(frames.lines().count(), 41, "{out}: every frame has its row");
     }
-    let err = fails(&[
-        "localize",
-        "--model",
-        &r("model"),
-        "--seq",
-        &r("data/test"),
-        "--out",
-        &r("run-strict"),
-        "--strict",
-    ]);
-    assert!(err.contains("000005.png"), "{err}");
-    let first = err.lines().next().unwrap_or_default();
-    let causes: Vec<&str> = first.split(": ").collect();
-    for (k, c) in causes.iter().enumerate() {
-        assert!(!causes[k + 1..].contains(c), "a cause said twice: {first}");
+    // Live, the frames are decoded on a thread of their own: its error stops the run too.
+    for (out, mode) in [
+        ("run-strict", "--neighbours=1"),
+        ("run-strict-live", "--live"),
+    ] {
+        let err = fails(&[
+            "localize",
+            "--model",
+            &r("model"),
+            "--seq",
+            &r("data/test"),
+            "--out",
+            &r(out),
+            "--strict",
+            mode,
+        ]);
+        assert!(err.contains("000005.png"), "{out}: {err}");
+        let first = err.lines().next().unwrap_or_default();
+        let causes: Vec<&str> = first.split(": ").collect();
+        for (k, c) in causes.iter().enumerate() {
+            assert!(!causes[k + 1..].contains(c), "a cause said twice: {first}");
+        }
+        assert!(
+            !st.root.join(out).join("frames.csv").exists(),
+            "{out}: no partial output"
+        );
     }
-    assert!(
-        !st.root.join("run-strict/frames.csv").exists(),
-        "no partial output"
-    );
     std::fs::write(&corrupt, &png).unwrap();
 
     // The pretraining recipe: a second pass joins the pairs, and a model starts from our

@@ -346,14 +346,28 @@ impl LocalizeJob {
             }
         };
         if self.live {
+            // Frame k+1 is decoded on its own thread while frame k is localized (a scope
+            // delivers decoded frames; here the files must be read), at most two ahead.
             let mut state = localizer.live_state();
-            for i in 0..n {
-                emit(match load(i)? {
-                    Ok(img) => localizer.localize_live(&mut state, &img)?,
-                    Err(unreadable) => unreadable,
-                })?;
-                bar.inc(1);
-            }
+            std::thread::scope(|scope| -> Result<()> {
+                let (tx, rx) = std::sync::mpsc::sync_channel(2);
+                scope.spawn(move || {
+                    for i in 0..n {
+                        // A closed channel: the localization stopped at an error.
+                        if tx.send(load(i)).is_err() {
+                            break;
+                        }
+                    }
+                });
+                for loaded in rx {
+                    emit(match loaded? {
+                        Ok(img) => localizer.localize_live(&mut state, &img)?,
+                        Err(unreadable) => unreadable,
+                    })?;
+                    bar.inc(1);
+                }
+                Ok(())
+            })?;
         } else {
             // Frames are independent: localized in parallel a block at a time, so that at
             // most one block of results waits to be written.
