@@ -13,7 +13,7 @@
 use std::f32::consts::SQRT_2;
 use std::sync::OnceLock;
 
-use crate::integral::{IntegralImage, round_i64};
+use crate::integral::{HaarWindow, IntegralImage, round_i64};
 use crate::mask::Mask;
 
 const GRID: usize = 24;
@@ -62,30 +62,18 @@ pub(crate) fn describe(
 ) {
     let (sin, cos) = angle.sin_cos();
     let size = 2 * round_i64(scale).max(1);
-    let reach = size as f32 * std::f32::consts::FRAC_1_SQRT_2;
     // Rotated Haar responses on the 24 × 24 sample grid.
     let mut du = [0.0f32; GRID * GRID];
     let mut dv = [0.0f32; GRID * GRID];
-    // Without a mask, and with the whole grid inside the image (most keypoints), no sample
-    // needs a check.
-    let inside = mask.is_none() && ii.contains_samples(x, y, 11.5 * SQRT_2 * scale, size);
+    let window = HaarWindow::new(ii, mask, (x, y), 11.5 * SQRT_2 * scale, size);
     for mv in 0..GRID {
         let v = (mv as f32 - 11.5) * scale;
         for mu in 0..GRID {
             let u = (mu as f32 - 11.5) * scale;
             let px = x + u * cos - v * sin;
             let py = y + u * sin + v * cos;
-            let (dx, dy) = if inside {
-                // SAFETY: every sample of the grid lies inside the image (`contains_samples`).
-                unsafe { ii.haar_inside(px, py, size) }
-            } else {
-                if mask.is_some_and(|m| !m.contains_disc(px, py, reach)) {
-                    continue;
-                }
-                match ii.haar(px, py, size) {
-                    Some(r) => r,
-                    None => continue,
-                }
+            let Some((dx, dy)) = window.at(px, py) else {
+                continue;
             };
             du[mv * GRID + mu] = dx * cos + dy * sin;
             dv[mv * GRID + mu] = -dx * sin + dy * cos;

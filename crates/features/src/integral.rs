@@ -1,5 +1,7 @@
 //! Summed-area table (integral image) for O(1) box sums.
 
+use crate::mask::Mask;
+
 /// Integral image of a grey image: `sum(x, y)` is the sum of all pixels with column `< x`
 /// and row `< y`, stored for `x ∈ 0..=width`, `y ∈ 0..=height` (one row/column more than the
 /// image). Intensities are on the 0..255 scale; sums are `f64`, exact for 8-bit images of any
@@ -110,6 +112,55 @@ impl IntegralImage {
     }
 }
 
+/// The Haar wavelets of one keypoint's window (orientation disc, descriptor grid): a sample
+/// whose box reaches outside the mask or the image gives `None`. Without a mask, and with the
+/// whole window inside the image (most keypoints), samples skip every check.
+pub(crate) struct HaarWindow<'a> {
+    ii: &'a IntegralImage,
+    mask: Option<&'a Mask>,
+    size: i64,
+    /// Distance from a wavelet's centre to its box's corners, pixels (the mask test).
+    reach: f32,
+    /// No mask, and every wavelet of the window lies inside the image.
+    inside: bool,
+}
+
+impl<'a> HaarWindow<'a> {
+    /// Wavelets of side `size` (even, ≥ 2) centred within `radius` pixels of `(x, y)`.
+    pub(crate) fn new(
+        ii: &'a IntegralImage,
+        mask: Option<&'a Mask>,
+        (x, y): (f32, f32),
+        radius: f32,
+        size: i64,
+    ) -> Self {
+        HaarWindow {
+            ii,
+            mask,
+            size,
+            reach: size as f32 * std::f32::consts::FRAC_1_SQRT_2,
+            inside: mask.is_none() && ii.contains_samples(x, y, radius, size),
+        }
+    }
+
+    /// The responses `(dx, dy)` of the wavelet centred at `(sx, sy)`, which must lie within
+    /// the window's radius ([`IntegralImage::haar`]).
+    #[inline(always)]
+    pub(crate) fn at(&self, sx: f32, sy: f32) -> Option<(f32, f32)> {
+        if self.inside {
+            // SAFETY: `new` checked that every wavelet within the radius lies inside.
+            return Some(unsafe { self.ii.haar_inside(sx, sy, self.size) });
+        }
+        if self
+            .mask
+            .is_some_and(|m| !m.contains_disc(sx, sy, self.reach))
+        {
+            return None;
+        }
+        self.ii.haar(sx, sy, self.size)
+    }
+}
+
 /// Floor of a finite `f32` as `i64` without a libm call.
 #[inline(always)]
 pub(crate) fn floor_i64(v: f32) -> i64 {
@@ -145,7 +196,8 @@ impl IntegralImage {
     }
 
     /// [`IntegralImage::haar`] for a wavelet that lies inside the image, e.g. one of a
-    /// keypoint's samples when [`IntegralImage::contains_samples`] says they all do.
+    /// keypoint's samples when [`IntegralImage::contains_samples`] says they all do
+    /// ([`HaarWindow`]).
     ///
     /// # Safety
     /// The wavelet must lie inside the image: `haar(x, y, size)` is `Some`.

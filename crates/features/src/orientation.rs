@@ -9,7 +9,7 @@
 use std::f32::consts::{PI, TAU};
 use std::sync::OnceLock;
 
-use crate::integral::{IntegralImage, round_i64};
+use crate::integral::{HaarWindow, IntegralImage, round_i64};
 use crate::mask::Mask;
 
 /// Sample offsets (in units of σ) and their Gaussian weights.
@@ -41,23 +41,12 @@ pub(crate) fn orientation(
     scale: f32,
 ) -> f32 {
     let size = 2 * round_i64(2.0 * scale).max(1);
-    let reach = size as f32 * std::f32::consts::FRAC_1_SQRT_2;
     let mut resp: Vec<(f32, f32, f32)> = Vec::with_capacity(109);
-    // Without a mask, and with the whole disc inside the image, no sample needs a check.
-    let inside = mask.is_none() && ii.contains_samples(x, y, 6.0 * scale, size);
+    let window = HaarWindow::new(ii, mask, (x, y), 6.0 * scale, size);
     for &(i, j, g) in samples() {
         let (sx, sy) = (x + i * scale, y + j * scale);
-        let (dx, dy) = if inside {
-            // SAFETY: every sample of the disc lies inside the image (`contains_samples`).
-            unsafe { ii.haar_inside(sx, sy, size) }
-        } else {
-            if mask.is_some_and(|m| !m.contains_disc(sx, sy, reach)) {
-                continue;
-            }
-            match ii.haar(sx, sy, size) {
-                Some(r) => r,
-                None => continue,
-            }
+        let Some((dx, dy)) = window.at(sx, sy) else {
+            continue;
         };
         let (rx, ry) = (g * dx, g * dy);
         if rx != 0.0 || ry != 0.0 {
