@@ -956,6 +956,9 @@ impl Localizer {
         state: &mut LiveState,
         img: &image::GrayImage,
     ) -> Result<FrameResult, LocalizeError> {
+        // A refused frame must not advance the stream, and a tracked frame is never
+        // classified: its size is checked first.
+        self.classifier.check_image(img)?;
         let t = Instant::now();
         let features = self.surf.detect_and_describe(img)?;
         let times = StageTimes {

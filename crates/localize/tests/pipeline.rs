@@ -292,6 +292,14 @@ fn refined_poses_are_accurate_and_tracking_survives_a_wrong_classifier() {
             .collect()
     };
     let (lazy, every) = (run_classifying(false), run_classifying(true));
+    // An image of another size is refused before the stream advances.
+    let loc = localizer(f, LocalizerConfig::default());
+    let mut state = loc.live_state();
+    assert!(
+        loc.localize_live(&mut state, &image::GrayImage::new(8, 8))
+            .is_err()
+    );
+    assert_eq!(state.frames(), 0);
     let unclassified = lazy.iter().filter(|r| r.zone_score.is_nan()).count();
     assert!(
         unclassified * 4 >= live_frames,

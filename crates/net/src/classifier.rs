@@ -411,7 +411,11 @@ impl ZoneClassifier {
         })
     }
 
-    fn check_image(&self, img: &image::GrayImage) -> Result<(), NetError> {
+    /// Checks that `img` has the size of the training images.
+    ///
+    /// # Errors
+    /// [`NetError::Incompatible`] naming both sizes.
+    pub fn check_image(&self, img: &image::GrayImage) -> Result<(), NetError> {
         let m = &self.config.camera;
         if img.width() != m.width || img.height() != m.height {
             return Err(NetError::Incompatible {
