@@ -27,26 +27,84 @@ pub fn match_guided(
     min_depth_mm: f64,
     cfg: &MatcherConfig,
 ) -> Vec<Match> {
+    guided(
+        features,
+        points,
+        camera,
+        t_wc,
+        radius_px,
+        min_depth_mm,
+        cfg,
+        true,
+    )
+}
+
+/// [`match_guided`], with `prune` = false computing every distance in full (the reference the
+/// pruned search is tested against).
+#[allow(clippy::too_many_arguments)]
+fn guided(
+    features: &[Feature],
+    points: &[&MapPoint],
+    camera: &Camera,
+    t_wc: &Pose,
+    radius_px: f64,
+    min_depth_mm: f64,
+    cfg: &MatcherConfig,
+    prune: bool,
+) -> Vec<Match> {
     if features.is_empty() || points.is_empty() {
         return Vec::new();
     }
-    // Features bucketed on a grid of cells `radius_px` wide.
-    let cell = radius_px.max(1.0);
+    // Features bucketed on a grid of cells `radius_px` wide (at least 8 px, so that small
+    // windows do not make a huge grid), stored as one index array sorted by cell.
+    let cell = radius_px.max(8.0);
     let cols = (camera.width as f64 / cell).ceil().max(1.0) as usize;
     let rows = (camera.height as f64 / cell).ceil().max(1.0) as usize;
-    let mut grid: Vec<Vec<u32>> = vec![Vec::new(); cols * rows];
     let cell_of = |x: f64, y: f64| -> Option<(usize, usize)> {
         let (cx, cy) = ((x + 0.5) / cell, (y + 0.5) / cell);
         (cx >= 0.0 && cy >= 0.0 && (cx as usize) < cols && (cy as usize) < rows)
             .then_some((cx as usize, cy as usize))
     };
-    for (i, f) in features.iter().enumerate() {
-        if let Some((cx, cy)) = cell_of(f.keypoint.x as f64, f.keypoint.y as f64) {
-            grid[cy * cols + cx].push(i as u32);
+    let cells: Vec<Option<usize>> = features
+        .iter()
+        .map(|f| cell_of(f.keypoint.x as f64, f.keypoint.y as f64).map(|(cx, cy)| cy * cols + cx))
+        .collect();
+    // `start[c]..start[c + 1]` indexes `slots` for cell `c`; features keep their order. A slot
+    // holds what the window test needs, so a window is scanned in contiguous memory.
+    let mut start = vec![0u32; cols * rows + 1];
+    for c in cells.iter().flatten() {
+        start[c + 1] += 1;
+    }
+    for c in 0..cols * rows {
+        start[c + 1] += start[c];
+    }
+    let mut slots = vec![Slot::default(); start[cols * rows] as usize];
+    let mut fill = start.clone();
+    for (i, (f, c)) in features.iter().zip(&cells).enumerate() {
+        if let Some(c) = *c {
+            slots[fill[c] as usize] = Slot {
+                x: f.keypoint.x,
+                y: f.keypoint.y,
+                laplacian: f.laplacian(),
+                index: i as u32,
+            };
+            fill[c] += 1;
         }
     }
     let t_cw = t_wc.inverse();
     let r2 = radius_px * radius_px;
+    // A pair farther apart than `max_distance / ratio` can neither be accepted nor fail a
+    // feature's ratio test (its best is within `max_distance`), nor beat an accepted match in
+    // the mutual check: it is skipped as soon as a partial sum exceeds that bound. The slack
+    // covers the rounding of `ratio² · d2` in the test below, so the matches are exactly those
+    // of the full distances.
+    let ratio2 = cfg.ratio * cfg.ratio;
+    let max2 = cfg.max_distance * cfg.max_distance;
+    let bound = if prune && ratio2 > 0.0 {
+        max2 / ratio2 * (1.0 + 1e-4)
+    } else {
+        f32::INFINITY
+    };
     // Per feature: (best point, d1², d2²); per point: (best feature, d²).
     let mut forward: Vec<(usize, f32, f32)> =
         vec![(usize::MAX, f32::INFINITY, f32::INFINITY); features.len()];
@@ -72,18 +130,22 @@ pub fn match_guided(
         };
         for cy in r0..=r1 {
             for cx in c0..=c1 {
-                for &i in &grid[cy * cols + cx] {
-                    let i = i as usize;
-                    let f = &features[i];
-                    let (dx, dy) = (f.keypoint.x as f64 - px.x, f.keypoint.y as f64 - px.y);
+                let c = cy * cols + cx;
+                for slot in &slots[start[c] as usize..start[c + 1] as usize] {
+                    let (dx, dy) = (slot.x as f64 - px.x, slot.y as f64 - px.y);
                     if dx * dx + dy * dy > r2 {
                         continue;
                     }
-                    let (a, b) = (f.laplacian(), p.laplacian());
+                    let (a, b) = (slot.laplacian, p.laplacian());
                     if cfg.laplacian_gating && a != 0 && b != 0 && a != b {
                         continue;
                     }
-                    let d = squared_distance(f.descriptor(), p.descriptor());
+                    let i = slot.index as usize;
+                    let f = &features[i];
+                    let Some(d) = squared_distance_within(f.descriptor(), p.descriptor(), bound)
+                    else {
+                        continue;
+                    };
                     let fw = &mut forward[i];
                     if d < fw.1 {
                         *fw = (j, d, fw.1);
@@ -97,8 +159,6 @@ pub fn match_guided(
             }
         }
     }
-    let ratio2 = cfg.ratio * cfg.ratio;
-    let max2 = cfg.max_distance * cfg.max_distance;
     forward
         .iter()
         .enumerate()
@@ -116,9 +176,19 @@ pub fn match_guided(
         .collect()
 }
 
+/// A feature in the window grid: its pixel, Laplacian sign and index.
+#[derive(Debug, Clone, Copy, Default)]
+struct Slot {
+    x: f32,
+    y: f32,
+    laplacian: i8,
+    index: u32,
+}
+
 /// Squared Euclidean distance, summed in eight lanes (which the compiler turns into SIMD) and
-/// then across them.
-fn squared_distance(a: &[f32], b: &[f32]) -> f32 {
+/// then across them; `None` once the first half of the sum exceeds `bound` (the terms are
+/// non-negative, so the whole sum would too). An unbounded call is the plain distance.
+fn squared_distance_within(a: &[f32], b: &[f32], bound: f32) -> Option<f32> {
     const LANES: usize = 8;
     let mut acc = [0.0f32; LANES];
     let (ca, cb) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
@@ -128,13 +198,24 @@ fn squared_distance(a: &[f32], b: &[f32]) -> f32 {
         .zip(cb.remainder())
         .map(|(x, y)| (x - y) * (x - y))
         .sum();
-    for (xa, xb) in ca.zip(cb) {
+    let half = ca.len() / 2;
+    let lanes = |acc: &mut [f32; LANES], xa: &[f32], xb: &[f32]| {
         for k in 0..LANES {
             let d = xa[k] - xb[k];
             acc[k] += d * d;
         }
+    };
+    let mut chunks = ca.zip(cb);
+    for (xa, xb) in chunks.by_ref().take(half) {
+        lanes(&mut acc, xa, xb);
     }
-    acc.iter().sum::<f32>() + tail
+    if bound.is_finite() && acc.iter().sum::<f32>() > bound {
+        return None;
+    }
+    for (xa, xb) in chunks {
+        lanes(&mut acc, xa, xb);
+    }
+    Some(acc.iter().sum::<f32>() + tail)
 }
 
 #[cfg(test)]
@@ -182,10 +263,94 @@ mod tests {
                 .zip(&b)
                 .map(|(x, y)| f64::from(x - y).powi(2))
                 .sum();
-            let got = f64::from(squared_distance(&a, &b));
+            let got = squared_distance_within(&a, &b, f32::INFINITY).map(f64::from);
+            let got = got.expect("an unbounded distance is always computed");
             assert!(
                 (got - plain).abs() <= 1e-6 * plain.max(1.0),
                 "{n}: {got} vs {plain}"
+            );
+            // Bounded: the distance when within the bound, never `None` below it.
+            let at = got as f32;
+            assert_eq!(
+                squared_distance_within(&a, &b, at * 1.001),
+                Some(got as f32)
+            );
+            if n >= 16 {
+                assert_eq!(squared_distance_within(&a, &b, 0.0), None, "{n}");
+            }
+        }
+    }
+
+    /// The pruned search gives exactly the matches of the full distances, for a distance cap
+    /// with the ratio test and mutual check on or off. Each feature has a close point (squared
+    /// distance up to 0.12) and a rival beside it whose distance straddles the bound
+    /// (0.05–0.3), so the ratio test and the mutual check are decided near it.
+    #[test]
+    fn pruning_far_pairs_changes_no_match() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut uniform = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let unit = |v: Vec<f32>| {
+            let n = v.iter().map(|x| x * x).sum::<f32>().sqrt();
+            v.into_iter().map(|x| x / n).collect::<Vec<f32>>()
+        };
+        // `v` moved by a random direction of squared length `d2` (≈ the squared distance).
+        let near = |v: &[f32], d2: f32, uniform: &mut dyn FnMut() -> f32| {
+            let dir = unit((0..v.len()).map(|_| uniform() - 0.5).collect());
+            unit(v.iter().zip(&dir).map(|(a, e)| a + d2.sqrt() * e).collect())
+        };
+        let camera = Camera::from_hfov(640, 480, 90.0);
+        let mut points = Vec::new();
+        let mut features = Vec::new();
+        for _ in 0..800 {
+            let (u, v) = (
+                20.0 + 600.0 * uniform() as f64,
+                20.0 + 440.0 * uniform() as f64,
+            );
+            let true_point: Vec<f32> = unit((0..64).map(|_| uniform() - 0.5).collect());
+            let fd = near(&true_point, 0.12 * uniform(), &mut uniform);
+            let rival = near(&fd, 0.05 + 0.25 * uniform(), &mut uniform);
+            for (desc, du) in [(true_point, 0.0), (rival, 4.0 * (uniform() as f64 - 0.5))] {
+                let z = 30.0 + 50.0 * uniform() as f64;
+                let p_c = camera
+                    .unproject(&nalgebra::Point2::new(u + du, v), z)
+                    .expect("inside the image");
+                let mut p = point([p_c.x, p_c.y, p_c.z], [0.0, 0.0]);
+                p.descriptor = desc;
+                points.push(p);
+            }
+            let mut f = feature(u as f32 + 2.0 * (uniform() - 0.5), v as f32, [0.0, 0.0]);
+            f.descriptor = fd;
+            features.push(f);
+        }
+        let pts: Vec<&MapPoint> = points.iter().collect();
+        let pose = Pose::identity();
+        for (max_distance, mutual) in [(0.3, true), (0.3, false), (0.25, true)] {
+            let cfg = MatcherConfig {
+                max_distance,
+                mutual,
+                ..MatcherConfig::default()
+            };
+            let full = guided(&features, &pts, &camera, &pose, 6.0, 1.0, &cfg, false);
+            let pruned = guided(&features, &pts, &camera, &pose, 6.0, 1.0, &cfg, true);
+            assert!(full.len() > 100, "{max_distance}: {} matches", full.len());
+            let key = |m: &[Match]| -> Vec<(usize, usize, u32)> {
+                m.iter()
+                    .map(|m| (m.query, m.train, m.distance.to_bits()))
+                    .collect()
+            };
+            let (full, pruned) = (key(&full), key(&pruned));
+            let differ = full.iter().filter(|m| !pruned.contains(m)).count();
+            assert!(
+                full == pruned,
+                "{max_distance} mutual {mutual}: {differ} of {} matches differ, {} vs {}",
+                full.len(),
+                full.len(),
+                pruned.len()
             );
         }
     }
