@@ -35,6 +35,7 @@ use endoloc_features::{Feature, MatcherConfig};
 use endoloc_geometry::{
     Camera, Pose, PoseEstimate, Reason, RegistrationConfig, Status, localize_pose,
 };
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::LocalizeError;
@@ -223,16 +224,20 @@ pub fn confirm(
     }
     // Starts around the confirmed pose (or the registered one when confirmation failed).
     let centre = first.estimate.as_ref().map_or(*t_wc, |e| e.t_wc);
+    let starts: Vec<Pose> = (0..3)
+        .flat_map(|axis| {
+            [-1.0, 1.0].map(|sign| {
+                let mut offset = nalgebra::Vector3::zeros();
+                offset[axis] = sign * cfg.start_offset_mm;
+                let mut start = centre;
+                start.translation.vector += centre.rotation * offset;
+                start
+            })
+        })
+        .collect();
+    // The starts are independent: run side by side, collected in order.
     let mut results = vec![first];
-    for axis in 0..3 {
-        for sign in [-1.0, 1.0] {
-            let mut offset = nalgebra::Vector3::zeros();
-            offset[axis] = sign * cfg.start_offset_mm;
-            let mut start = centre;
-            start.translation.vector += centre.rotation * offset;
-            results.push(run(&start));
-        }
-    }
+    results.par_extend(starts.par_iter().map(|start| run(start)));
     let starts = results.len();
     let best = (0..results.len())
         .max_by_key(|&i| (results[i].inliers(), std::cmp::Reverse(i)))
