@@ -237,7 +237,7 @@ pub fn confirm(
         .collect();
     // The starts are independent: run side by side, collected in order.
     let mut results = vec![first];
-    results.par_extend(starts.par_iter().map(|start| run(start)));
+    results.par_extend(starts.par_iter().map(run));
     let starts = results.len();
     let best = (0..results.len())
         .max_by_key(|&i| (results[i].inliers(), std::cmp::Reverse(i)))
