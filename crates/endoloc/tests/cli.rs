@@ -501,20 +501,29 @@ fn every_method_and_experiment_writes_its_outputs() {
     let corrupt = st.root.join("data/test/images/000005.png");
     let png = std::fs::read(&corrupt).unwrap();
     std::fs::write(&corrupt, &png[..png.len() / 2]).unwrap();
-    for (out, mode) in [
-        ("run-corrupt-live", "--live"),
-        ("run-corrupt", "--neighbours=1"),
-    ] {
-        let text = ok(&[
+    let localize_args = |out: &str, extra: &[&str]| -> Vec<String> {
+        let mut args = [
             "localize",
             "--model",
             &r("model"),
             "--seq",
             &r("data/test"),
             "--out",
-            &r(out),
-            mode,
-        ]);
+        ]
+        .map(String::from)
+        .to_vec();
+        args.push(r(out));
+        args.extend(extra.iter().map(|a| a.to_string()));
+        args
+    };
+    fn strs(args: &[String]) -> Vec<&str> {
+        args.iter().map(String::as_str).collect()
+    }
+    for (out, mode) in [
+        ("run-corrupt-live", "--live"),
+        ("run-corrupt", "--neighbours=1"),
+    ] {
+        let text = ok(&strs(&localize_args(out, &[mode])));
         assert!(text.contains("(1 unreadable images)"), "{out}: {text}");
         let frames = std::fs::read_to_string(st.root.join(out).join("frames.csv")).unwrap();
         let row5 = frames.lines().nth(6).unwrap();
@@ -529,17 +538,7 @@ fn every_method_and_experiment_writes_its_outputs() {
         ("run-strict", "--neighbours=1"),
         ("run-strict-live", "--live"),
     ] {
-        let err = fails(&[
-            "localize",
-            "--model",
-            &r("model"),
-            "--seq",
-            &r("data/test"),
-            "--out",
-            &r(out),
-            "--strict",
-            mode,
-        ]);
+        let err = fails(&strs(&localize_args(out, &["--strict", mode])));
         assert!(err.contains("000005.png"), "{out}: {err}");
         let first = err.lines().next().unwrap_or_default();
         let causes: Vec<&str> = first.split(": ").collect();
