@@ -107,9 +107,9 @@ pub(crate) fn orientation(
     if a < 0.0 { a + TAU } else { a }
 }
 
-/// `atan2(y, x)` in `[-π, π]` within 4e-7 rad (2 ulp at π) of the exact value (the sign of a zero `y`
-/// kept, as `f32::atan2` does), without branches: `atan(a) = a · P(a²)` on `[0, 1]` with a
-/// degree-7 polynomial fitted to the minimax error (4e-8 rad), then the octant.
+/// `atan2(y, x)` in `[-π, π]` within 4e-7 rad (2 ulp at π) of the exact value (the sign of a
+/// zero `y` kept, as `f32::atan2` does), in straight-line code: `atan(a) = a · P(a²)` on `[0, 1]`
+/// with a degree-7 polynomial fitted to the minimax error (4e-8 rad), then the octant.
 fn atan2(y: f32, x: f32) -> f32 {
     const C: [f32; 8] = [
         0.999_999_34,

@@ -27,31 +27,6 @@ pub fn match_guided(
     min_depth_mm: f64,
     cfg: &MatcherConfig,
 ) -> Vec<Match> {
-    guided(
-        features,
-        points,
-        camera,
-        t_wc,
-        radius_px,
-        min_depth_mm,
-        cfg,
-        true,
-    )
-}
-
-/// [`match_guided`], with `prune` = false computing every distance in full (the reference the
-/// pruned search is tested against).
-#[allow(clippy::too_many_arguments)]
-fn guided(
-    features: &[Feature],
-    points: &[&MapPoint],
-    camera: &Camera,
-    t_wc: &Pose,
-    radius_px: f64,
-    min_depth_mm: f64,
-    cfg: &MatcherConfig,
-    prune: bool,
-) -> Vec<Match> {
     if features.is_empty() || points.is_empty() {
         return Vec::new();
     }
@@ -100,7 +75,7 @@ fn guided(
     // of the full distances.
     let ratio2 = cfg.ratio * cfg.ratio;
     let max2 = cfg.max_distance * cfg.max_distance;
-    let bound = if prune && ratio2 > 0.0 {
+    let bound = if ratio2 > 0.0 {
         max2 / ratio2 * (1.0 + 1e-4)
     } else {
         f32::INFINITY
@@ -281,12 +256,68 @@ mod tests {
         }
     }
 
-    /// The pruned search gives exactly the matches of the full distances, for a distance cap
-    /// with the ratio test and mutual check on or off. Each feature has a close point (squared
-    /// distance up to 0.12) and a rival beside it whose distance straddles the bound
-    /// (0.05–0.3), so the ratio test and the mutual check are decided near it.
+    /// Every pair within the window, every distance in full, the tests applied to the nearest
+    /// two: the guided matches, computed the plain way (camera at the origin).
+    fn reference(
+        features: &[Feature],
+        points: &[&MapPoint],
+        camera: &Camera,
+        radius: f64,
+        cfg: &MatcherConfig,
+    ) -> Vec<Match> {
+        let px: Vec<_> = points.iter().map(|p| camera.project(&p.p_world)).collect();
+        let pairs = |i: usize| {
+            let f = &features[i];
+            px.iter().enumerate().filter_map(move |(j, q)| {
+                let q = q.as_ref()?;
+                let (dx, dy) = (f.keypoint.x as f64 - q.x, f.keypoint.y as f64 - q.y);
+                let plain: f32 = f
+                    .descriptor
+                    .iter()
+                    .zip(&points[j].descriptor)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum();
+                (dx * dx + dy * dy <= radius * radius).then_some((j, plain))
+            })
+        };
+        let mut best_feature = vec![(usize::MAX, f32::INFINITY); points.len()];
+        for i in 0..features.len() {
+            for (j, d) in pairs(i) {
+                if d < best_feature[j].1 {
+                    best_feature[j] = (i, d);
+                }
+            }
+        }
+        let (ratio2, max2) = (cfg.ratio * cfg.ratio, cfg.max_distance * cfg.max_distance);
+        let mut out = Vec::new();
+        for i in 0..features.len() {
+            let mut d: Vec<(usize, f32)> = pairs(i).collect();
+            d.sort_by(|a, b| a.1.total_cmp(&b.1));
+            let Some(&(j, d1)) = d.first() else {
+                continue;
+            };
+            let d2 = d.get(1).map_or(f32::INFINITY, |x| x.1);
+            if (d2.is_infinite() || d1 < ratio2 * d2)
+                && d1 <= max2
+                && (!cfg.mutual || best_feature[j].0 == i)
+            {
+                out.push(Match {
+                    query: i,
+                    train: j,
+                    distance: d1.sqrt(),
+                });
+            }
+        }
+        out
+    }
+
+    /// The grid-scanned, pruned search gives exactly the matches of the plain computation,
+    /// for a distance cap with the ratio test and mutual check on or off. Each feature has a
+    /// close point (squared distance up to 0.12) and a rival beside it whose distance
+    /// straddles the pruning bound (0.05–0.3), so the ratio test and the mutual check are
+    /// decided near it.
     #[test]
-    fn pruning_far_pairs_changes_no_match() {
+    fn guided_matches_are_those_of_the_plain_computation() {
         let mut state = 0x2545_f491_4f6c_dd1du64;
         let mut uniform = move || {
             state = state
@@ -335,23 +366,23 @@ mod tests {
                 mutual,
                 ..MatcherConfig::default()
             };
-            let full = guided(&features, &pts, &camera, &pose, 6.0, 1.0, &cfg, false);
-            let pruned = guided(&features, &pts, &camera, &pose, 6.0, 1.0, &cfg, true);
-            assert!(full.len() > 100, "{max_distance}: {} matches", full.len());
-            let key = |m: &[Match]| -> Vec<(usize, usize, u32)> {
-                m.iter()
-                    .map(|m| (m.query, m.train, m.distance.to_bits()))
-                    .collect()
+            let full = reference(&features, &pts, &camera, 6.0, &cfg);
+            let pruned = match_guided(&features, &pts, &camera, &pose, 6.0, 1.0, &cfg);
+            let pairs = |m: &[Match]| -> Vec<(usize, usize)> {
+                m.iter().map(|m| (m.query, m.train)).collect()
             };
-            let (full, pruned) = (key(&full), key(&pruned));
-            let differ = full.iter().filter(|m| !pruned.contains(m)).count();
+            let (want, got) = (pairs(&full), pairs(&pruned));
+            let differ = want.iter().filter(|m| !got.contains(m)).count();
             assert!(
-                full == pruned,
+                want == got,
                 "{max_distance} mutual {mutual}: {differ} of {} matches differ, {} vs {}",
-                full.len(),
-                full.len(),
-                pruned.len()
+                want.len(),
+                want.len(),
+                got.len()
             );
+            for (a, b) in full.iter().zip(&pruned) {
+                assert!((a.distance - b.distance).abs() < 1e-5, "{a:?} vs {b:?}");
+            }
         }
     }
 
