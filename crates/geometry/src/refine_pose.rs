@@ -25,8 +25,12 @@
 //! Converged when a step moves the camera centre by less than `min_step_mm` **and** rotates it
 //! by less than `min_step_rad`, or when the relative cost decrease falls below
 //! `min_relative_decrease`, or when no step along the Gauss-Newton direction lowers the cost.
-//! After convergence with a robust kernel, an optional plain least-squares polish on the
-//! inliers (`polish_inliers`) removes the small bias the kernel leaves.
+//! After convergence with a robust kernel, an optional polish on the inliers
+//! (`polish_inliers`) converges again with `polish_kernel`: by default a Cauchy kernel of
+//! 1 px, since the residuals of a registration are dominated by the map points' own errors
+//! (triangulated from a few views, some of them millimetres off along the ray), which are
+//! heavy-tailed — a few points a pixel or two off pull a least-squares or Huber pose, the
+//! Cauchy kernel all but ignores them.
 //!
 //! # Allocation
 //!
@@ -113,8 +117,10 @@ pub struct RefineConfig {
     pub min_relative_decrease: f64,
     /// A correspondence is an inlier when its final reprojection error is below this, pixels.
     pub inlier_threshold_px: f64,
-    /// After the robust stage, refine again by plain least squares on the inliers.
+    /// After the robust stage, refine again on its inliers with [`Self::polish_kernel`].
     pub polish_inliers: bool,
+    /// Kernel of the polish ([`RobustKernel::None`]: plain least squares on the inliers).
+    pub polish_kernel: RobustKernel,
     /// Points closer than this to the image plane (depth, mm) count as behind the camera.
     pub min_depth_mm: f64,
     /// Reject as degenerate when the smallest eigenvalue of the Jacobi-scaled normal matrix is
@@ -132,6 +138,7 @@ impl Default for RefineConfig {
             min_relative_decrease: 1e-14,
             inlier_threshold_px: 4.0,
             polish_inliers: true,
+            polish_kernel: RobustKernel::Cauchy { scale_px: 1.0 },
             min_depth_mm: 1e-3,
             min_normalized_eigenvalue: 1e-10,
         }
@@ -426,7 +433,7 @@ pub fn refine_pose(
     if polish {
         let count = inliers.iter().filter(|&&b| b).count();
         if count >= 3 {
-            let (t2, _, it2, conv2) = problem.solve(t_wc, &RobustKernel::None, Some(&inliers), cfg);
+            let (t2, _, it2, conv2) = problem.solve(t_wc, &cfg.polish_kernel, Some(&inliers), cfg);
             iterations += it2;
             converged &= conv2;
             t_wc = t2;

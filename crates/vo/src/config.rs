@@ -73,6 +73,9 @@ impl Default for VoConfig {
             refine: RefineConfig {
                 kernel: RobustKernel::Huber { scale_px: 1.5 },
                 inlier_threshold_px: 3.0,
+                // Least squares on the inliers: the Cauchy polish was chosen on map
+                // registrations and is not measured on VO's short-baseline points.
+                polish_kernel: RobustKernel::None,
                 ..RefineConfig::default()
             },
             triangulation: TriangulationConfig {
