@@ -232,6 +232,7 @@ def localize(
     confirm: bool = ...,
     max_rms_px: float = ...,
     max_jump_mm: float = ...,
+    polish_px: float = ...,
     strict: bool = ...,
     force: bool = ...,
     progress: ProgressArg = None,
@@ -282,6 +283,8 @@ def localize(
       refine it again from them; one they do not support is `init_only` (`unsupported`).
     - ``max_rms_px``: Validity: largest RMS reprojection error of the inliers, pixels.
     - ``max_jump_mm``: Validity: largest jump from the prior, mm.
+    - ``polish_px``: Scale of the Cauchy kernel of the final polish on the inliers, pixels
+      (0: least squares).
     - ``strict``: Stop at the first image that cannot be read instead of reporting the
       frame as `rejected` (`unreadable_image`) and going on.
     - ``force``: Replace existing results in `out`.

@@ -208,6 +208,7 @@ class Localizer:
         confirm: bool = ...,
         max_rms_px: float = ...,
         max_jump_mm: float = ...,
+        polish_px: float = ...,
     ) -> None: ...
     def localize(self, image: Image) -> FrameResult:
         """Localizes one frame of the model's image size; live, frames in order."""

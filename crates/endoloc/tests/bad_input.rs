@@ -345,6 +345,15 @@ fn catalogue() -> Vec<Case> {
             },
         ),
         case(
+            "negative polish kernel scale (localize)",
+            &["-0.5 px", "--polish-px", "expected a finite value > 0"],
+            |fx, d| {
+                let mut a = localize(&fx.model, &fx.data.join("test"), d);
+                a.push("--polish-px=-0.5".into());
+                a
+            },
+        ),
+        case(
             "image that is not an image (features)",
             &["notes.png"],
             |_, d| {

@@ -22,7 +22,9 @@ use std::borrow::Cow;
 use std::time::Instant;
 
 use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
-use endoloc_geometry::{Camera, Pose, Reason, RegistrationConfig, Status, localize_pose};
+use endoloc_geometry::{
+    Camera, Pose, Reason, RegistrationConfig, RobustKernel, Status, localize_pose,
+};
 use endoloc_net::{TemporalConfig, TemporalFilter, TrackFilter, ZoneClassifier, ZonePrediction};
 use serde::{Deserialize, Serialize};
 
@@ -371,6 +373,20 @@ impl Localizer {
         classifier.check_compatible(&map.camera)?;
         cfg.motion.validate().map_err(LocalizeError::Config)?;
         cfg.confirm.validate()?;
+        let refine = &cfg.localize.refine;
+        for (name, kernel) in [
+            ("kernel", refine.kernel),
+            ("polish_kernel", refine.polish_kernel),
+        ] {
+            if let RobustKernel::Huber { scale_px } | RobustKernel::Cauchy { scale_px } = kernel
+                && !(scale_px.is_finite() && scale_px > 0.0)
+            {
+                return Err(LocalizeError::Config(format!(
+                    "refine {name} scale {scale_px} px (localize --polish-px for the polish); \
+                     expected a finite value > 0, or 0 for least squares"
+                )));
+            }
+        }
         if !(cfg.uncertainty_scale.is_finite() && cfg.uncertainty_scale > 0.0) {
             return Err(LocalizeError::Config(format!(
                 "uncertainty_scale = {}; expected a finite value > 0",

@@ -319,6 +319,7 @@ const LOCALIZER_OPTIONS: &[&str] = &[
     "confirm",
     "max_rms_px",
     "max_jump_mm",
+    "polish_px",
 ];
 
 #[pymethods]

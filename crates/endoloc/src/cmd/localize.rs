@@ -188,6 +188,11 @@ pub struct LocalizeArgs {
     /// refined pose), mm.
     #[arg(long, default_value_t = LocalizeJob::default().max_jump_mm)]
     max_jump_mm: f64,
+    /// Scale of the Cauchy kernel of the final polish on the inliers, pixels: map points are
+    /// now and then a pixel or two off where a new view sees them, and the kernel all but
+    /// ignores those. 0: least squares on the inliers.
+    #[arg(long, default_value_t = LocalizeJob::default().polish_px)]
+    polish_px: f64,
     /// Stop at the first image that cannot be read (for batch checks) instead of
     /// reporting the frame as `rejected` (reason `unreadable_image`) and going on.
     #[arg(long)]
@@ -255,6 +260,7 @@ impl From<LocalizeArgs> for LocalizeJob {
             confirm: a.confirm,
             max_rms_px: a.max_rms_px,
             max_jump_mm: a.max_jump_mm,
+            polish_px: a.polish_px,
             strict: a.strict,
             force: a.force,
         }

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use endoloc_data::{Dataset, Sequence, StampedPose};
 use endoloc_features::Mask;
+use endoloc_geometry::RobustKernel;
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{ConfirmConfig, FrameResult, Localizer, LocalizerConfig, MotionConfig};
 use endoloc_net::ZoneClassifier;
@@ -124,6 +125,9 @@ pub struct LocalizeJob {
     pub max_rms_px: f64,
     /// Validity: largest jump from the prior, mm.
     pub max_jump_mm: f64,
+    /// Scale of the Cauchy kernel of the final polish on the inliers, pixels (0: least
+    /// squares, the efficient choice when the map points are exact and the noise Gaussian).
+    pub polish_px: f64,
     /// Stop at the first image that cannot be read instead of reporting the frame as
     /// `rejected` (`unreadable_image`) and going on.
     pub strict: bool,
@@ -161,6 +165,10 @@ impl Default for LocalizeJob {
             confirm: cfg.confirm.is_on(),
             max_rms_px: validity.max_rms_px,
             max_jump_mm: validity.max_jump_mm,
+            polish_px: match cfg.localize.refine.polish_kernel {
+                RobustKernel::Cauchy { scale_px } | RobustKernel::Huber { scale_px } => scale_px,
+                RobustKernel::None => 0.0,
+            },
             strict: false,
             force: false,
         }
@@ -232,6 +240,13 @@ impl LocalizeJob {
         validity.max_position_sigma_mm = self.max_sigma_mm;
         validity.max_rms_px = self.max_rms_px;
         validity.max_jump_mm = self.max_jump_mm;
+        cfg.localize.refine.polish_kernel = if self.polish_px == 0.0 {
+            RobustKernel::None
+        } else {
+            RobustKernel::Cauchy {
+                scale_px: self.polish_px,
+            }
+        };
         cfg
     }
 
