@@ -5,8 +5,8 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use endoloc_geometry::synthetic::{PnpSceneConfig, perturb_pose, pnp_scene, standard_normal};
 use endoloc_geometry::{
-    Camera, Observation, Pose, RansacConfig, RefineConfig, RegistrationConfig, TriangulationConfig,
-    Triangulator, localize_pose, ransac_pnp, refine_pose,
+    Camera, Observation, Pose, RansacConfig, RefineConfig, RegistrationConfig, RobustKernel,
+    TriangulationConfig, Triangulator, localize_pose, ransac_pnp, refine_pose,
 };
 use nalgebra::{Point3, Translation3, UnitQuaternion};
 use rand::{Rng, SeedableRng};
@@ -26,6 +26,25 @@ fn bench_refine(c: &mut Criterion) {
                     &s.pixels,
                     &s.camera,
                     &cfg,
+                )
+            })
+        },
+    );
+    // The same with least squares as the polish: the Cauchy polish's cost, in one run.
+    let least_squares = RefineConfig {
+        polish_kernel: RobustKernel::None,
+        ..cfg
+    };
+    c.bench_function(
+        "refine_pose/200 corr, 0.5 px, 30% outliers, prior 5°/5 mm, least-squares polish",
+        |b| {
+            b.iter(|| {
+                refine_pose(
+                    black_box(&prior),
+                    &s.points_world,
+                    &s.pixels,
+                    &s.camera,
+                    &least_squares,
                 )
             })
         },

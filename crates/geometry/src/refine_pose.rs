@@ -433,7 +433,22 @@ pub fn refine_pose(
     if polish {
         let count = inliers.iter().filter(|&&b| b).count();
         if count >= 3 {
-            let (t2, _, it2, conv2) = problem.solve(t_wc, &cfg.polish_kernel, Some(&inliers), cfg);
+            // A robust polish converges linearly (its weights change with every step): it stops
+            // once a step moves the camera by less than 1e-6 mm / 1e-8 rad or lowers the cost
+            // by less than 1e-9 of it, far below any error that matters (least squares, which
+            // converges in a step or two, keeps the configured thresholds).
+            let polish_cfg = if cfg.polish_kernel == RobustKernel::None {
+                *cfg
+            } else {
+                RefineConfig {
+                    min_step_mm: cfg.min_step_mm.max(1e-6),
+                    min_step_rad: cfg.min_step_rad.max(1e-8),
+                    min_relative_decrease: cfg.min_relative_decrease.max(1e-9),
+                    ..*cfg
+                }
+            };
+            let (t2, _, it2, conv2) =
+                problem.solve(t_wc, &cfg.polish_kernel, Some(&inliers), &polish_cfg);
             iterations += it2;
             converged &= conv2;
             t_wc = t2;
