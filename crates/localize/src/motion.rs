@@ -292,7 +292,19 @@ impl Prediction {
             agrees,
         }
     }
+
+    /// Whether this prediction vouches for a pose `t_wc` whose own evidence is weak: it
+    /// agrees with the prediction ([`Prediction::compare`]) and is sharp enough for that
+    /// agreement to mean something, its stated 95 % bound (1.96 × `position_std_mm`, mm)
+    /// inside the gate's base radius [`Gate::mm`]. A pose less certain than that agrees with
+    /// the prediction whether it is right or not. A NaN standard deviation never vouches.
+    pub fn vouches_for(&self, t_wc: &Pose, position_std_mm: f64, gate: &Gate) -> bool {
+        STATED_BOUND_SIGMAS * position_std_mm <= gate.mm && self.compare(t_wc, gate).agrees
+    }
 }
+
+/// Standard deviations in the stated 95 % bound of a pose (`1.96 × position_std_mm`).
+pub const STATED_BOUND_SIGMAS: f64 = 1.96;
 
 #[cfg(test)]
 mod tests {
@@ -391,5 +403,22 @@ mod tests {
         assert_eq!(gate.mm_per_frame, 5.0);
         assert!(p.compare(&pose(7.5, 0.0), &gate).agrees);
         assert!(!p.compare(&pose(7.5, 0.0), &cfg).agrees);
+    }
+
+    #[test]
+    fn a_weak_pose_is_vouched_for_only_when_it_agrees_and_is_sharp() {
+        let gate = Gate::new(&MotionConfig::default(), &[]);
+        let p = Prediction {
+            t_wc: pose(0.0, 0.0),
+            age: 1,
+        };
+        let near = pose(2.0, 0.0);
+        assert!(p.vouches_for(&near, 0.5, &gate));
+        // 1.96 × 1.5 mm = 2.94 mm fits the 3 mm base radius; 1.96 × 2.6 mm does not, though
+        // the pose is as close.
+        assert!(p.vouches_for(&near, 1.5, &gate));
+        assert!(!p.vouches_for(&near, 2.6, &gate));
+        assert!(!p.vouches_for(&near, f64::NAN, &gate));
+        assert!(!p.vouches_for(&pose(10.0, 0.0), 0.5, &gate));
     }
 }

@@ -330,6 +330,16 @@ enum Zones<'a> {
     Image(&'a image::GrayImage),
 }
 
+/// Where the prior of a registration comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Prior {
+    /// A zone's median pose: matching by brute force against the zone's map points.
+    ZoneMedian,
+    /// The motion model's prediction: matching guided within this many pixels of it
+    /// ([`crate::guided`]), or by brute force with `None`.
+    Predicted { guide_px: Option<f64> },
+}
+
 /// The registration of a live frame from the motion model's prediction.
 enum Tracked {
     /// No recent prediction (or it lies outside every zone): not tried.
@@ -509,19 +519,21 @@ impl Localizer {
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
         let prior = self.classifier.zones().zones[zone].median_pose;
-        self.register_from(features, zone, &prior, None, zone_score, times)
+        self.register_from(features, zone, &prior, Prior::ZoneMedian, zone_score, times)
     }
 
     /// Matches `features` to the map points of `zone` (and its neighbours) and refines from
-    /// `prior` (`T_wc`, mm); the validity check measures the jump from `prior`. With
-    /// `guide_px`, matching is guided by `prior` ([`crate::guided`]: only map points
+    /// `prior` (`T_wc`, mm); the validity check measures the jump from `prior`. A predicted
+    /// prior with a guide radius guides the matching ([`crate::guided`]: only map points
     /// projected within that many pixels of a feature compete for it); brute force otherwise.
+    /// With confirmation on, the registration is confirmed unless it is tracked from a
+    /// prediction with [`ConfirmConfig::trust_tracked_inliers`].
     fn register_from(
         &self,
         features: &[endoloc_features::Feature],
         zone: usize,
         prior: &Pose,
-        guide_px: Option<f64>,
+        origin: Prior,
         zone_score: f32,
         mut times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
@@ -533,6 +545,10 @@ impl Localizer {
             .iter()
             .flat_map(|zm| zm.points.iter())
             .collect();
+        let guide_px = match origin {
+            Prior::Predicted { guide_px } => guide_px,
+            Prior::ZoneMedian => None,
+        };
         let matches = if features.is_empty() || candidates.is_empty() {
             Vec::new()
         } else if let Some(radius) = guide_px {
@@ -572,7 +588,11 @@ impl Localizer {
         let mut result = result;
         let (mut inliers, mut rms, mut inlier_px, mut correspondences) =
             (inliers, rms, inlier_px, matches.len());
+        let trust = self.cfg.confirm.trust_tracked_inliers;
+        let trusted_as_is =
+            matches!(origin, Prior::Predicted { .. }) && trust > 0 && inliers >= trust;
         if self.cfg.confirm.is_on()
+            && !trusted_as_is
             && result.verdict.status == Status::Refined
             && let Some(t_wc) = result.t_wc
         {
@@ -1168,7 +1188,8 @@ impl Localizer {
         let m = &self.cfg.motion;
         let radius =
             (m.search_px > 0.0).then_some(m.search_px + m.search_px_per_frame * p.age as f64);
-        let r = self.register_from(features, z, &p.t_wc, radius, score, times)?;
+        let origin = Prior::Predicted { guide_px: radius };
+        let r = self.register_from(features, z, &p.t_wc, origin, score, times)?;
         let r = self.disambiguate(r, Some(p));
         if r.status == Status::Refined && r.t_wc.is_some_and(|t| p.compare(&t, &self.gate).agrees) {
             return Ok(Tracked::Registered(r));
@@ -1221,18 +1242,23 @@ impl Localizer {
     }
 
     /// Live: a registration that confirmation found `weakly_supported` (valid, few inliers)
-    /// is `refined` when its pose agrees with the motion model's `prediction`, as a weak
-    /// registration is at the motion gate; one found `ambiguous` (two poses apart, nearly
-    /// equally supported) when the better supported agrees with a recent prediction (at most
-    /// [`LocalizerConfig::track_frames`] old, while the gate is still narrow): the motion
-    /// tells the two apart.
+    /// is `refined` when the motion model's `prediction` vouches for it
+    /// ([`Prediction::vouches_for`]: it agrees, as a weak registration must at the motion
+    /// gate, and its stated 95 % bound fits inside the gate's base radius); one found
+    /// `ambiguous` (two poses apart, nearly equally supported) when the better supported
+    /// agrees with a recent prediction (at most [`LocalizerConfig::track_frames`] old, while
+    /// the gate is still narrow): the motion tells the two apart.
     fn disambiguate(&self, mut r: FrameResult, prediction: Option<&Prediction>) -> FrameResult {
-        let usable = match r.reason {
-            Some(Reason::WeaklySupported { .. }) => prediction,
-            Some(Reason::Ambiguous { .. }) => prediction.filter(|p| p.age <= self.cfg.track_frames),
-            _ => None,
+        let std_mm = r.position_std_mm;
+        let agrees = |t: &Pose| match r.reason {
+            Some(Reason::WeaklySupported { .. }) => {
+                prediction.is_some_and(|p| p.vouches_for(t, std_mm, &self.gate))
+            }
+            Some(Reason::Ambiguous { .. }) => prediction
+                .filter(|p| p.age <= self.cfg.track_frames)
+                .is_some_and(|p| p.compare(t, &self.gate).agrees),
+            _ => false,
         };
-        let agrees = |t: &Pose| usable.is_some_and(|p| p.compare(t, &self.gate).agrees);
         if r.status == Status::InitOnly && r.t_wc.as_ref().is_some_and(agrees) {
             r.status = Status::Refined;
             r.reason = None;

@@ -14,6 +14,8 @@
 //! - confirmation against the map points near the registered pose sharpens right poses,
 //!   pulls a pose 3 mm off back to the truth and refuses a pose that another stretch's
 //!   features do not support;
+//! - live with confirmation, strong tracked registrations are trusted as they are, as right
+//!   as confirmed ones;
 //! - geometric verification (`endoloc classify --verify`): frames the classifier puts one
 //!   zone off get their true zone back from the zone of their registered pose.
 
@@ -864,5 +866,110 @@ fn confirmation_sharpens_right_registrations_and_refuses_a_pose_the_map_does_not
         ),
         "{:?}",
         c.reason
+    );
+}
+
+/// Live with confirmation, tracked registrations with enough inliers are trusted as they are:
+/// those frames skip confirmation (their inlier counts are the registration's, not the
+/// confirmed ones, several times higher; on these 320×240 frames one in five or more), and
+/// the poses are as right as when every frame is confirmed.
+#[test]
+fn live_confirmation_trusts_strong_tracked_frames_without_losing_accuracy() {
+    let f = fixture();
+    let test = f.ds.sequence("test").unwrap();
+    let frames = 90;
+    let plain = localizer(f, LocalizerConfig::default());
+    let features: Vec<_> = (0..frames)
+        .map(|i| {
+            plain
+                .surf()
+                .detect_and_describe(&test.load_gray(i).unwrap())
+                .unwrap()
+        })
+        .collect();
+    let run = |trust_tracked_inliers: usize| -> Vec<(Status, usize, f64)> {
+        let loc = localizer(
+            f,
+            LocalizerConfig {
+                confirm: ConfirmConfig {
+                    trust_tracked_inliers,
+                    ..ConfirmConfig::standard()
+                },
+                ..LocalizerConfig::default()
+            },
+        );
+        let mut state = loc.live_state();
+        features
+            .iter()
+            .enumerate()
+            .map(|(i, feats)| {
+                let z = loc.classifier().truth_zone(&test.poses[i].pose).unwrap();
+                let r = loc
+                    .localize_live_features(
+                        &mut state,
+                        feats,
+                        None,
+                        &predict(z),
+                        StageTimes::default(),
+                    )
+                    .unwrap();
+                (
+                    r.status,
+                    r.inliers,
+                    position_error_mm(&r, &test.poses[i].pose),
+                )
+            })
+            .collect()
+    };
+    let (trusting, all) = (run(ConfirmConfig::standard().trust_tracked_inliers), run(0));
+    let refined = |r: &[(Status, usize, f64)]| -> Vec<f64> {
+        let mut e: Vec<f64> = r
+            .iter()
+            .filter(|x| x.0 == Status::Refined)
+            .map(|x| x.2)
+            .collect();
+        e.sort_by(f64::total_cmp);
+        e
+    };
+    let (a, b) = (refined(&trusting), refined(&all));
+    let fewer_inliers = trusting
+        .iter()
+        .zip(&all)
+        .filter(|(t, c)| t.0 == Status::Refined && t.1 < c.1)
+        .count();
+    eprintln!(
+        "refined {} trusting, {} confirming all; median {:.3} / {:.3} mm; more than 5 mm off \
+         {} / {}; {} frames with the registration's own inliers",
+        a.len(),
+        b.len(),
+        a[a.len() / 2],
+        b[b.len() / 2],
+        a.iter().filter(|&&x| x > 5.0).count(),
+        b.iter().filter(|&&x| x > 5.0).count(),
+        fewer_inliers
+    );
+    assert!(
+        fewer_inliers * 5 >= a.len(),
+        "only {fewer_inliers} of {} refined frames skipped confirmation",
+        a.len()
+    );
+    assert!(
+        a.len() + 3 >= b.len(),
+        "refined {} against {}",
+        a.len(),
+        b.len()
+    );
+    let wrong = |e: &[f64]| e.iter().filter(|&&x| x > 5.0).count();
+    assert!(
+        wrong(&a) <= wrong(&b),
+        "refined frames more than 5 mm off: {} trusting, {} confirming all",
+        wrong(&a),
+        wrong(&b)
+    );
+    assert!(
+        a[a.len() / 2] <= 1.25 * b[b.len() / 2] + 0.01,
+        "median {:.3} mm trusting against {:.3} mm confirming all",
+        a[a.len() / 2],
+        b[b.len() / 2]
     );
 }
