@@ -45,9 +45,8 @@ pub const FRAMES_CSV_HEADER_V1: &str =
     "frame,zone,zone_score,status,reason,inliers,reprojection_rms_px,time_ms";
 
 /// The 95 % bound on a refined frame's position (orientation) error is this many times its
-/// `position_std_mm` (`orientation_std_deg`): the two-sided 95 % quantile of a normal
-/// distribution along the least certain direction.
-pub const BOUND95_PER_STD: f64 = 1.96;
+/// `position_std_mm` (`orientation_std_deg`).
+pub use endoloc_geometry::BOUND95_PER_STD;
 
 const COLUMNS: usize = 11;
 const COLUMNS_V1: usize = 8;

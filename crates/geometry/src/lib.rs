@@ -34,7 +34,9 @@ pub use pnp::{RansacConfig, RansacError, RansacPose, ransac_pnp};
 pub use pose::{
     Pose, canonical_quaternion, orientation_error_deg, pose_from_matrix, position_error_mm,
 };
-pub use refine_pose::{PoseEstimate, RefineConfig, RefineError, RobustKernel, refine_pose};
+pub use refine_pose::{
+    BOUND95_PER_STD, PoseEstimate, RefineConfig, RefineError, RobustKernel, refine_pose,
+};
 pub use registration::{Localization, RegistrationConfig, RegistrationError, localize_pose};
 pub use rotation_mean::{
     GeodesicMedianConfig, RotationMeanError, chordal_mean, geodesic_median, zone_median_pose,

@@ -145,6 +145,11 @@ impl Default for RefineConfig {
     }
 }
 
+/// A stated 95 % bound on a position (orientation) error is this many times its standard
+/// deviation: the two-sided 95 % quantile of a normal distribution along the least certain
+/// direction. Localization's `position_std_mm` / `orientation_std_deg` are calibrated for it.
+pub const BOUND95_PER_STD: f64 = 1.96;
+
 /// A refined pose with its quality figures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PoseEstimate {

@@ -74,10 +74,11 @@ pub struct ConfirmConfig {
     /// Live: a registration tracked from the motion model's prediction (matched near a recent
     /// refined pose) with at least this many inliers, whatever the image size (as the motion
     /// gate's [`MotionConfig::trusted_inliers`](crate::motion::MotionConfig::trusted_inliers)),
-    /// is trusted as it is, not confirmed; 0 = confirm every registration. The wrong `refined` poses that confirmation removes
-    /// are weak registrations (8–30 inliers on the benchmark's colons), while a strong
-    /// tracked one comes out no sharper for it; skipping those (three frames in four or more)
-    /// makes confirmation cost a fraction of a millisecond per frame instead of about four.
+    /// is trusted as it is, not confirmed; 0 = confirm every registration. The wrong
+    /// `refined` poses that confirmation removes are weak registrations (8–30 inliers on the
+    /// benchmark's colons), while a strong tracked one comes out no sharper for it; skipping
+    /// those (three frames in four or more) makes confirmation cost a fraction of a
+    /// millisecond per frame instead of about four.
     pub trust_tracked_inliers: usize,
 }
 

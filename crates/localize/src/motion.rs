@@ -299,12 +299,10 @@ impl Prediction {
     /// inside the gate's base radius [`Gate::mm`]. A pose less certain than that agrees with
     /// the prediction whether it is right or not. A NaN standard deviation never vouches.
     pub fn vouches_for(&self, t_wc: &Pose, position_std_mm: f64, gate: &Gate) -> bool {
-        STATED_BOUND_SIGMAS * position_std_mm <= gate.mm && self.compare(t_wc, gate).agrees
+        endoloc_geometry::BOUND95_PER_STD * position_std_mm <= gate.mm
+            && self.compare(t_wc, gate).agrees
     }
 }
-
-/// Standard deviations in the stated 95 % bound of a pose (`1.96 × position_std_mm`).
-pub const STATED_BOUND_SIGMAS: f64 = 1.96;
 
 #[cfg(test)]
 mod tests {
