@@ -279,8 +279,10 @@ def localize(
       mm (default: no limit).
     - ``weak_max_std_mm``: Per frame: the same for registrations with fewer than
       ``trusted_inliers`` inliers.
-    - ``confirm``: Confirm every registration against all map points near its pose and
-      refine it again from them; one they do not support is `init_only` (`unsupported`).
+    - ``confirm``: Confirm registrations against all map points near their pose and refine
+      them again from those; one they do not support is `init_only` (`unsupported`). On by
+      default (``False``: ``--no-confirm``); live, strong tracked registrations are trusted
+      as they are.
     - ``max_rms_px``: Validity: largest RMS reprojection error of the inliers, pixels.
     - ``max_jump_mm``: Validity: largest jump from the prior, mm.
     - ``polish_px``: Scale of the Cauchy kernel of the final polish on the inliers, pixels

@@ -47,7 +47,8 @@ def benchmark(
       from scratch on each colon.
     - ``epochs``: Training epochs (default: 0 with ``pretrained``, else the schedule's own).
     - ``seed``: Seed of every training.
-    - ``methods``: Methods (default: endoloc-paper, endoloc, endoloc-live, classify).
+    - ``methods``: Methods (default: endoloc-paper, endoloc, endoloc-confirm, endoloc-live,
+      endoloc-live-confirm, classify).
     - ``colon``: Run only this colon (`seed-N`, `dev-seed-N` or `ct-<folder>`).
     - ``print_jobs``: Print one command per colon and the merge command, and stop.
     - ``merge``: Run nothing: write the tables from the finished colons.

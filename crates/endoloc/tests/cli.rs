@@ -179,6 +179,26 @@ fn every_method_and_experiment_writes_its_outputs() {
         &r("run-per-frame"),
     ]);
     check_run_files(&st.root.join("run-per-frame"), 40);
+    // Registrations are confirmed against the map unless told otherwise, and the run's
+    // settings say which.
+    let settings = |run: &str| std::fs::read_to_string(st.root.join(run).join("localize.toml"));
+    for run in ["run", "run-per-frame"] {
+        let toml = settings(run).unwrap();
+        assert!(toml.contains("confirm = true"), "{run}: {toml}");
+    }
+    ok(&[
+        "localize",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--out",
+        &r("run-no-confirm"),
+        "--live",
+        "--no-confirm",
+    ]);
+    let toml = settings("run-no-confirm").unwrap();
+    assert!(toml.contains("confirm = false"), "{toml}");
     ok(&[
         "eval",
         "--gt",

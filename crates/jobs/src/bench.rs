@@ -34,7 +34,8 @@ pub struct LiveBenchJob {
     /// Also run the plain path (SURF's reference loop, every frame classified, tracked frames
     /// matched by brute force) on every frame, alternating which runs first.
     pub compare: bool,
-    /// Localize as `endoloc localize --live --confirm` does.
+    /// Confirm registrations against the map, as `endoloc localize --live` does by default
+    /// (both paths; off: `--no-confirm`).
     pub confirm: bool,
 }
 
@@ -45,7 +46,7 @@ impl Default for LiveBenchJob {
             seq: PathBuf::new(),
             frames: None,
             compare: true,
-            confirm: false,
+            confirm: true,
         }
     }
 }

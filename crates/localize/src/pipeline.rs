@@ -107,8 +107,9 @@ pub struct LocalizerConfig {
     /// uncertainty than right ones.
     pub weak_max_std_mm: f64,
     /// Every registration is confirmed against all map points near its pose and refined again
-    /// from them ([`confirm`](mod@crate::confirm); beyond the paper). Off by default
-    /// ([`ConfirmConfig::standard`] turns it on).
+    /// from them ([`confirm`](mod@crate::confirm); beyond the paper). Off in this
+    /// configuration's default, the paper's pipeline; [`ConfirmConfig::standard`] turns it on,
+    /// as `endoloc localize` does unless told `--no-confirm`.
     pub confirm: ConfirmConfig,
 }
 

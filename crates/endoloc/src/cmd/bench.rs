@@ -47,8 +47,11 @@ struct LiveArgs {
     /// Time the current localizer alone (no plain-path run).
     #[arg(long)]
     no_compare: bool,
-    /// Localize as `endoloc localize --live --confirm` does.
-    #[arg(long)]
+    /// Localize as `endoloc localize --live --no-confirm` does (both paths).
+    #[arg(long, overrides_with = "confirm")]
+    no_confirm: bool,
+    /// Confirm registrations against the map (the default; see --no-confirm).
+    #[arg(long, hide = true, overrides_with = "no_confirm")]
     confirm: bool,
 }
 
@@ -60,7 +63,7 @@ pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
                 seq: a.seq,
                 frames: a.frames,
                 compare: !a.no_compare,
-                confirm: a.confirm,
+                confirm: !a.no_confirm,
             };
             crate::ui::print(&job.run(ui)?)?;
         }

@@ -51,7 +51,8 @@ pub struct BenchmarkJob {
     pub epochs: Option<usize>,
     /// Seed of every training.
     pub seed: u64,
-    /// Methods (default: endoloc-paper, endoloc, endoloc-live, classify).
+    /// Methods (default: endoloc-paper, endoloc, endoloc-confirm, endoloc-live,
+    /// endoloc-live-confirm, classify).
     pub methods: Vec<Method>,
     /// Run only this colon (a name from `--print-jobs`); the tables are not written.
     pub colon: Option<String>,
@@ -245,10 +246,12 @@ pub fn interval(values: &[f64]) -> Option<Interval> {
     })
 }
 
-const DEFAULT_METHODS: [Method; 4] = [
+const DEFAULT_METHODS: [Method; 6] = [
     Method::EndolocPaper,
     Method::Endoloc,
+    Method::EndolocConfirm,
     Method::EndolocLive,
+    Method::EndolocLiveConfirm,
     Method::Classify,
 ];
 

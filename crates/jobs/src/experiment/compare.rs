@@ -63,13 +63,17 @@ impl Default for CompareJob {
 pub enum Method {
     /// The paper's rule: top zone → median pose → SURF matching → Gauss-Newton.
     EndolocPaper,
-    /// Ours, trying the 3 best-scoring zones until one registers.
+    /// Ours, trying the 3 best-scoring zones until one registers; registrations not confirmed
+    /// against the map (`localize --no-confirm`).
     Endoloc,
-    /// Ours live: frames in order, the causal track filter, registration from the last pose.
+    /// Ours live: frames in order, the causal track filter, registration from the last pose;
+    /// registrations not confirmed against the map (`localize --live --no-confirm`).
     EndolocLive,
-    /// Ours per frame, every registration confirmed against the map (`localize --confirm`).
+    /// Ours per frame, every registration confirmed against the map, as `endoloc localize`
+    /// runs by default.
     EndolocConfirm,
-    /// Ours live, every registration confirmed against the map (`localize --live --confirm`).
+    /// Ours live, weak registrations confirmed against the map, as `endoloc localize --live`
+    /// runs by default.
     EndolocLiveConfirm,
     /// Ours with offline Viterbi zone smoothing.
     EndolocViterbi,
@@ -117,13 +121,9 @@ impl Method {
         Method::Retrieval,
     ];
 
-    /// The methods run when none are named: all but the confirmed variants of ours
-    /// (`endoloc-confirm`, `endoloc-live-confirm`), which are run on request.
+    /// The methods run when none are named: all of them.
     fn all() -> Vec<Method> {
-        Self::ALL
-            .into_iter()
-            .filter(|m| !matches!(m, Method::EndolocConfirm | Method::EndolocLiveConfirm))
-            .collect()
+        Self::ALL.to_vec()
     }
 
     /// The method's name (folder name and table row), e.g. `endoloc-live`.
@@ -148,10 +148,16 @@ impl Method {
     fn description(self) -> &'static str {
         match self {
             Method::EndolocPaper => "two-step, top zone only (the paper's rule)",
-            Method::Endoloc => "two-step, up to 3 candidate zones",
-            Method::EndolocLive => "two-step, live: causal track filter and tracking, 3 candidates",
-            Method::EndolocConfirm => "two-step, 3 candidates, registrations confirmed by the map",
-            Method::EndolocLiveConfirm => "two-step, live, registrations confirmed by the map",
+            Method::Endoloc => "two-step, up to 3 candidate zones, unconfirmed (--no-confirm)",
+            Method::EndolocLive => {
+                "two-step, live: track filter, motion model, unconfirmed (--no-confirm)"
+            }
+            Method::EndolocConfirm => {
+                "two-step, 3 candidates, registrations confirmed by the map (the default)"
+            }
+            Method::EndolocLiveConfirm => {
+                "two-step, live, weak registrations confirmed by the map (the default)"
+            }
             Method::EndolocViterbi => "two-step, offline Viterbi zones, 3 candidates",
             Method::EndolocSmooth => "two-step, offline track-smoothed zones, 3 candidates",
             Method::Posenet => "PoseNet pose regression (Kendall et al. 2015)",

@@ -117,9 +117,11 @@ pub struct LocalizeJob {
     /// Per frame: the same for registrations with fewer than `trusted_inliers` inliers
     /// ([`LocalizerConfig::weak_max_std_mm`]).
     pub weak_max_std_mm: f64,
-    /// Confirm every registration against all map points near its pose and refine it again
-    /// from them ([`endoloc_localize::confirm`](mod@endoloc_localize::confirm)); a registration they do not support is
-    /// `init_only` (reason `unsupported`).
+    /// Confirm registrations against all map points near their pose and refine them again
+    /// from those ([`endoloc_localize::confirm`](mod@endoloc_localize::confirm)); a
+    /// registration they do not support is `init_only` (reason `unsupported`). On by default
+    /// (`--no-confirm` turns it off); live, strong tracked registrations are trusted as they
+    /// are ([`ConfirmConfig::trust_tracked_inliers`]).
     pub confirm: bool,
     /// Validity: largest RMS reprojection error of the inliers, pixels.
     pub max_rms_px: f64,
@@ -162,7 +164,8 @@ impl Default for LocalizeJob {
             max_sigma_mm: validity.max_position_sigma_mm,
             max_std_mm: cfg.max_std_mm,
             weak_max_std_mm: cfg.weak_max_std_mm,
-            confirm: cfg.confirm.is_on(),
+            // Unlike the library's configuration, whose default is the paper's pipeline.
+            confirm: true,
             max_rms_px: validity.max_rms_px,
             max_jump_mm: validity.max_jump_mm,
             polish_px: match cfg.localize.refine.polish_kernel {
@@ -645,10 +648,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn defaults_are_the_library_defaults() {
+    fn defaults_are_the_library_defaults_with_confirmation() {
         let map_surf = endoloc_localize::MapConfig::default().surf;
         assert_eq!(
             LocalizeJob::default().localizer_config(&map_surf),
+            LocalizerConfig {
+                confirm: ConfirmConfig::standard(),
+                ..LocalizerConfig::default()
+            }
+        );
+        let unconfirmed = LocalizeJob {
+            confirm: false,
+            ..LocalizeJob::default()
+        };
+        assert_eq!(
+            unconfirmed.localizer_config(&map_surf),
             LocalizerConfig::default()
         );
         let from_toml: LocalizeJob = toml::from_str("").unwrap();

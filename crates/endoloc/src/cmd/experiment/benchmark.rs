@@ -62,8 +62,8 @@ pub struct Args {
     /// Seed of every training.
     #[arg(long, default_value_t = BenchmarkJob::default().seed)]
     seed: u64,
-    /// Methods (default: endoloc-paper, endoloc, endoloc-live, classify; see `experiment
-    /// compare`).
+    /// Methods (default: endoloc-paper, endoloc, endoloc-confirm, endoloc-live,
+    /// endoloc-live-confirm, classify; see `experiment compare`).
     #[arg(long, value_delimiter = ',')]
     methods: Vec<CompareMethod>,
     /// Run only this colon (`seed-N`, `dev-seed-N` or `ct-<folder>`); the tables are not

@@ -41,7 +41,8 @@ pub struct Args {
     /// Use this trained Siamese model (with or without a map) instead of training one.
     #[arg(long, value_name = "DIR")]
     model: Option<PathBuf>,
-    /// Methods to run (default: all but endoloc-confirm and endoloc-live-confirm).
+    /// Methods to run (default: all). endoloc-confirm and endoloc-live-confirm are `endoloc
+    /// localize`'s defaults; endoloc and endoloc-live localize with --no-confirm.
     #[arg(long, value_delimiter = ',')]
     methods: Vec<CompareMethod>,
     /// Use an output folder that holds something else.
