@@ -11,7 +11,7 @@
 //!   [`MotionConfig::velocity_frames`] frames before it (none from a single pose).
 //! - **Prediction** `age = f − f₁` frames later: `T₁ · exp(ξ · d)` with the damped displacement
 //!   `d = Σ_{k<age} λᵏ` (`λ` = [`MotionConfig::damping`]): the scope is assumed to slow down
-//!   when nothing confirms its motion. With confirmation against the map (`--confirm`,
+//!   when nothing confirms its motion. With confirmation against the map (the CLI's default,
 //!   [`crate::ConfirmConfig`]) the refined poses behind the velocity are trustworthy enough to
 //!   extrapolate further: the translation `ρ` of `ξ = [ρ; φ]` is damped by
 //!   [`MotionConfig::confirmed_damping`] (1: a scope keeps advancing through a stretch it
