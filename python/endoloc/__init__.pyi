@@ -230,6 +230,7 @@ def localize(
     max_std_mm: float = ...,
     weak_max_std_mm: float = ...,
     confirm: bool = ...,
+    no_confirm: bool = ...,
     max_rms_px: float = ...,
     max_jump_mm: float = ...,
     polish_px: float = ...,
@@ -281,8 +282,8 @@ def localize(
       ``trusted_inliers`` inliers.
     - ``confirm``: Confirm registrations against all map points near their pose and refine
       them again from those; one they do not support is `init_only` (`unsupported`). On by
-      default (``False``: ``--no-confirm``); live, strong tracked registrations are trusted
-      as they are.
+      default; live, strong tracked registrations are trusted as they are.
+    - ``no_confirm``: Do not confirm registrations against the map (``confirm=False``).
     - ``max_rms_px``: Validity: largest RMS reprojection error of the inliers, pixels.
     - ``max_jump_mm``: Validity: largest jump from the prior, mm.
     - ``polish_px``: Scale of the Cauchy kernel of the final polish on the inliers, pixels

@@ -54,9 +54,19 @@ fn renamed(job: &str) -> &'static [(&'static str, &'static str)] {
     }
 }
 
+/// Options that turn a job's boolean field off, as the command line's `--no-…` flags do, per
+/// job: `(option, field)`.
+fn negated(job: &str) -> &'static [(&'static str, &'static str)] {
+    match job {
+        "simulate" => &[("no_depth", "depth")],
+        "localize" => &[("no_confirm", "confirm")],
+        _ => &[],
+    }
+}
+
 /// The keyword arguments of a job: its fields, with the command line's names where they differ,
-/// the experiments' `data`/`train`/`test` flattened as on the command line, and `simulate`'s
-/// `no_depth`.
+/// the experiments' `data`/`train`/`test` flattened as on the command line, and the `no_…`
+/// options of [`negated`].
 ///
 /// # Errors
 /// An unknown job name.
@@ -89,9 +99,7 @@ pub fn options_of(job: &str) -> PyResult<Vec<String>> {
             out.push(f);
         }
     }
-    if job == "simulate" {
-        out.push("no_depth".into());
-    }
+    out.extend(negated(job).iter().map(|(opt, _)| (*opt).to_string()));
     Ok(out)
 }
 
@@ -126,19 +134,18 @@ fn job_table(job: &str, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<toml::Ta
             t.insert((*field).to_string(), v);
         }
     }
-    if job == "simulate"
-        && let Some(v) = t.remove("no_depth")
-    {
-        let no_depth = v
+    for (opt, field) in negated(job) {
+        let Some(v) = t.remove(*opt) else { continue };
+        let off = v
             .as_bool()
-            .ok_or_else(|| PyTypeError::new_err("option no_depth: expected a bool".to_string()))?;
-        if no_depth {
-            if t.get("depth").and_then(toml::Value::as_bool) == Some(true) {
-                return Err(PyValueError::new_err(
-                    "depth=True and no_depth=True contradict each other",
-                ));
+            .ok_or_else(|| PyTypeError::new_err(format!("option {opt}: expected a bool")))?;
+        if off {
+            if t.get(*field).and_then(toml::Value::as_bool) == Some(true) {
+                return Err(PyValueError::new_err(format!(
+                    "{field}=True and {opt}=True contradict each other"
+                )));
             }
-            t.insert("depth".into(), toml::Value::Boolean(false));
+            t.insert((*field).to_string(), toml::Value::Boolean(false));
         }
     }
     if job.starts_with("experiment.") {

@@ -51,7 +51,7 @@ struct LiveArgs {
     #[arg(long, overrides_with = "confirm")]
     no_confirm: bool,
     /// Confirm registrations against the map (the default; see --no-confirm).
-    #[arg(long, hide = true, overrides_with = "no_confirm")]
+    #[arg(long, overrides_with = "no_confirm")]
     confirm: bool,
 }
 

@@ -185,7 +185,7 @@ pub struct LocalizeArgs {
     #[arg(long, overrides_with = "confirm")]
     no_confirm: bool,
     /// Confirm registrations against the map (the default; see --no-confirm).
-    #[arg(long, hide = true, overrides_with = "no_confirm")]
+    #[arg(long, overrides_with = "no_confirm")]
     confirm: bool,
     /// Validity: largest RMS reprojection error of the inliers, pixels.
     #[arg(long, default_value_t = LocalizeJob::default().max_rms_px)]
