@@ -206,6 +206,7 @@ class Localizer:
         max_std_mm: float = ...,
         weak_max_std_mm: float = ...,
         confirm: bool = ...,
+        no_confirm: bool = ...,
         max_rms_px: float = ...,
         max_jump_mm: float = ...,
         polish_px: float = ...,

@@ -128,6 +128,11 @@ def test_localizer_options_are_the_commands(tiny):
     loc = endoloc.Localizer(tiny / "model", candidate_zones=1, threshold=40.0, max_rms_px=3.0)
     assert "candidate_zones = 1" in loc.settings and "threshold = 40.0" in loc.settings
     loc.localize(seq[0])
+    assert "confirm = true" in loc.settings
+    for off in ({"no_confirm": True}, {"confirm": False}):
+        assert "confirm = false" in endoloc.Localizer(tiny / "model", **off).settings
+    with pytest.raises(ValueError, match="contradict"):
+        endoloc.Localizer(tiny / "model", confirm=True, no_confirm=True)
     with pytest.raises(TypeError, match="unexpected keyword argument \"out\""):
         endoloc.Localizer(tiny / "model", out="runs/x")
     with pytest.raises(ValueError, match="candidate_zones"):

@@ -64,6 +64,29 @@ fn negated(job: &str) -> &'static [(&'static str, &'static str)] {
     }
 }
 
+/// Turns the `no_…` options of [`negated`] in `t` into their fields (`no_confirm=True` →
+/// `confirm = false`), as the command line's `--no-…` flags do.
+///
+/// # Errors
+/// A `no_…` option that is not a bool, or one that contradicts its field set to true.
+pub(crate) fn apply_negated(job: &str, t: &mut toml::Table) -> PyResult<()> {
+    for (opt, field) in negated(job) {
+        let Some(v) = t.remove(*opt) else { continue };
+        let off = v
+            .as_bool()
+            .ok_or_else(|| PyTypeError::new_err(format!("option {opt}: expected a bool")))?;
+        if off {
+            if t.get(*field).and_then(toml::Value::as_bool) == Some(true) {
+                return Err(PyValueError::new_err(format!(
+                    "{field}=True and {opt}=True contradict each other"
+                )));
+            }
+            t.insert((*field).to_string(), toml::Value::Boolean(false));
+        }
+    }
+    Ok(())
+}
+
 /// The keyword arguments of a job: its fields, with the command line's names where they differ,
 /// the experiments' `data`/`train`/`test` flattened as on the command line, and the `no_…`
 /// options of [`negated`].
@@ -134,20 +157,7 @@ fn job_table(job: &str, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<toml::Ta
             t.insert((*field).to_string(), v);
         }
     }
-    for (opt, field) in negated(job) {
-        let Some(v) = t.remove(*opt) else { continue };
-        let off = v
-            .as_bool()
-            .ok_or_else(|| PyTypeError::new_err(format!("option {opt}: expected a bool")))?;
-        if off {
-            if t.get(*field).and_then(toml::Value::as_bool) == Some(true) {
-                return Err(PyValueError::new_err(format!(
-                    "{field}=True and {opt}=True contradict each other"
-                )));
-            }
-            t.insert((*field).to_string(), toml::Value::Boolean(false));
-        }
-    }
+    apply_negated(job, &mut t)?;
     if job.starts_with("experiment.") {
         let mut data = toml::Table::new();
         for k in ["data", "train", "test"] {

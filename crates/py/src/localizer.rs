@@ -317,6 +317,7 @@ const LOCALIZER_OPTIONS: &[&str] = &[
     "max_std_mm",
     "weak_max_std_mm",
     "confirm",
+    "no_confirm",
     "max_rms_px",
     "max_jump_mm",
     "polish_px",
@@ -352,6 +353,7 @@ impl PyLocalizer {
                 LOCALIZER_OPTIONS.join(", ")
             )));
         }
+        crate::jobs::apply_negated("localize", &mut t)?;
         t.insert(
             "model".into(),
             toml::Value::String(dir.to_string_lossy().into_owned()),

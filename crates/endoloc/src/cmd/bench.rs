@@ -47,12 +47,8 @@ struct LiveArgs {
     /// Time the current localizer alone (no plain-path run).
     #[arg(long)]
     no_compare: bool,
-    /// Localize as `endoloc localize --live --no-confirm` does (both paths).
-    #[arg(long, overrides_with = "confirm")]
-    no_confirm: bool,
-    /// Confirm registrations against the map (the default; see --no-confirm).
-    #[arg(long, overrides_with = "no_confirm")]
-    confirm: bool,
+    #[command(flatten)]
+    confirm: super::localize::ConfirmArgs,
 }
 
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
@@ -63,7 +59,7 @@ pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
                 seq: a.seq,
                 frames: a.frames,
                 compare: !a.no_compare,
-                confirm: !a.no_confirm,
+                confirm: a.confirm.on(),
             };
             crate::ui::print(&job.run(ui)?)?;
         }

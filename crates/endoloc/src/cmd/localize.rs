@@ -174,19 +174,8 @@ pub struct LocalizeArgs {
     /// inliers.
     #[arg(long, default_value_t = LocalizeJob::default().weak_max_std_mm)]
     weak_max_std_mm: f64,
-    /// Do not confirm registrations against the map. By default every registration (live:
-    /// every one not tracked from the prediction with 50 inliers or more) is checked against
-    /// all map points near its pose, matched in shrinking windows around their projections,
-    /// and refined again from them: sharper poses, and one that few of them support is
-    /// `init_only` (unsupported) with its registered pose (source `registered`); live, the
-    /// motion model keeps the translation undamped through frames that register nowhere.
-    /// With --no-confirm a frame takes about 10 % less time live and 30 % less per frame, and
-    /// wrong `refined` poses are far more common.
-    #[arg(long, overrides_with = "confirm")]
-    no_confirm: bool,
-    /// Confirm registrations against the map (the default; see --no-confirm).
-    #[arg(long, overrides_with = "no_confirm")]
-    confirm: bool,
+    #[command(flatten)]
+    confirm: ConfirmArgs,
     /// Validity: largest RMS reprojection error of the inliers, pixels.
     #[arg(long, default_value_t = LocalizeJob::default().max_rms_px)]
     max_rms_px: f64,
@@ -263,7 +252,7 @@ impl From<LocalizeArgs> for LocalizeJob {
             max_sigma_mm: a.max_sigma_mm,
             max_std_mm: a.max_std_mm,
             weak_max_std_mm: a.weak_max_std_mm,
-            confirm: !a.no_confirm,
+            confirm: a.confirm.on(),
             max_rms_px: a.max_rms_px,
             max_jump_mm: a.max_jump_mm,
             polish_px: a.polish_px,
@@ -277,4 +266,30 @@ impl From<LocalizeArgs> for LocalizeJob {
 pub fn run_localize(args: LocalizeArgs, ui: &dyn Progress) -> Result<()> {
     crate::ui::print(&LocalizeJob::from(args).run(ui)?)?;
     Ok(())
+}
+
+/// Whether registrations are confirmed against the map: `--no-confirm` and its pair
+/// `--confirm` (the default), shared by `localize` and `bench live`.
+#[derive(Debug, clap::Args)]
+pub struct ConfirmArgs {
+    /// Do not confirm registrations against the map. By default every registration (live:
+    /// every one not tracked from the prediction with 50 inliers or more) is checked against
+    /// all map points near its pose, matched in shrinking windows around their projections,
+    /// and refined again from them: sharper poses, and one that few of them support is
+    /// `init_only` (unsupported) with its registered pose (source `registered`); live, the
+    /// motion model keeps the translation undamped through frames that register nowhere.
+    /// With --no-confirm a frame takes about 10 % less time live and 30 % less per frame, and
+    /// wrong `refined` poses are far more common.
+    #[arg(long, overrides_with = "confirm")]
+    no_confirm: bool,
+    /// Confirm registrations against the map (the default; see --no-confirm).
+    #[arg(long, overrides_with = "no_confirm")]
+    confirm: bool,
+}
+
+impl ConfirmArgs {
+    /// Whether confirmation is on (the default; `--no-confirm` turns it off).
+    pub fn on(&self) -> bool {
+        !self.no_confirm
+    }
 }
