@@ -299,14 +299,7 @@ impl ZoneSweepJob {
         let data = Data::from_args(&args.data)?;
         common::create_out(&args.out, RESULTS)?;
         let results_path = args.out.join(RESULTS);
-        let mut rows = read_results(&results_path)?;
-        for &(n, r) in &grid {
-            if rows.iter().any(|x| (x.zones, x.run) == (n, r)) {
-                continue;
-            }
-            rows.extend(read_results(&args.run_dir(n, r).join(ROW))?);
-        }
-        rows.sort_by_key(|x| (x.zones, x.run));
+        let mut rows = args.finished_rows(&results_path, &grid)?;
         let todo: Vec<(usize, usize)> = selected
             .iter()
             .copied()
@@ -322,10 +315,26 @@ impl ZoneSweepJob {
                 todo.len(),
                 eta(t_start, k, todo.len() - k)
             );
-            let row = args.run_cell(&data, n, r, &mut features, progress)?;
-            rows.push(row);
-            rows.sort_by_key(|x| (x.zones, x.run));
+            // Another job on the same folder (`--cell`, or a sweep over other counts) may have
+            // finished the cell since the list was made.
+            let done_elsewhere = read_results(&args.run_dir(n, r).join(ROW))?;
+            if let Some(row) = done_elsewhere.into_iter().next() {
+                note!(progress, "finished by another job: {n} zones, run {r}");
+                rows.push(row);
+            } else {
+                let row = args.run_cell(&data, n, r, &mut features, progress)?;
+                rows.push(row);
+            }
             if args.cell.is_none() {
+                for row in args.finished_rows(&results_path, &grid)? {
+                    if !rows
+                        .iter()
+                        .any(|x| (x.zones, x.run) == (row.zones, row.run))
+                    {
+                        rows.push(row);
+                    }
+                }
+                rows.sort_by_key(|x| (x.zones, x.run));
                 common::write_text(&results_path, &format_results(&rows))?;
             }
         }
@@ -361,6 +370,19 @@ impl ZoneSweepJob {
             out: args.out.clone(),
             files: vec!["results.csv", "zones.md", "zones.png", "report.html"],
         })
+    }
+
+    /// The finished rows, sorted: `results.csv`, and the `row.csv` of every cell of `grid` that
+    /// it lacks (cells finished by `--cell` jobs, or by another sweep on the same folder).
+    fn finished_rows(&self, results_path: &Path, grid: &[(usize, usize)]) -> Result<Vec<RunRow>> {
+        let mut rows = read_results(results_path)?;
+        for &(n, r) in grid {
+            if !rows.iter().any(|x| (x.zones, x.run) == (n, r)) {
+                rows.extend(read_results(&self.run_dir(n, r).join(ROW))?);
+            }
+        }
+        rows.sort_by_key(|x| (x.zones, x.run));
+        Ok(rows)
     }
 
     /// Trains (or indexes), maps and localizes one cell; writes its `row.csv`.
