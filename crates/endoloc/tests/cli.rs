@@ -1000,6 +1000,22 @@ fn the_zone_sweep_runs_cell_by_cell_and_merges_to_the_whole_sweeps_table() {
     assert_eq!(table.len(), 5, "{table:?}");
     assert_eq!(table, without_seconds(&whole), "cells vs the whole sweep");
 
+    // Sweeps over disjoint counts may share one folder: its results.csv keeps every cell.
+    let halves = s(&tmp.path().join("halves"));
+    for count in ["2", "4"] {
+        let mut a = sweep(&halves, &[]);
+        for flag in ["--from", "--to"] {
+            let i = a.iter().position(|x| x == flag).unwrap();
+            a[i + 1] = count.to_string();
+        }
+        ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    }
+    assert_eq!(
+        without_seconds(&halves),
+        without_seconds(&whole),
+        "two sweeps over disjoint counts vs the whole sweep"
+    );
+
     let err = fails(
         &sweep(&cells, &["--cell", "3:0"])
             .iter()

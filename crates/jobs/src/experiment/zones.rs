@@ -326,15 +326,7 @@ impl ZoneSweepJob {
                 rows.push(row);
             }
             if args.cell.is_none() {
-                for row in args.finished_rows(&results_path, &grid)? {
-                    if !rows
-                        .iter()
-                        .any(|x| (x.zones, x.run) == (row.zones, row.run))
-                    {
-                        rows.push(row);
-                    }
-                }
-                rows.sort_by_key(|x| (x.zones, x.run));
+                rows = union(rows, args.finished_rows(&results_path, &grid)?);
                 common::write_text(&results_path, &format_results(&rows))?;
             }
         }
@@ -350,14 +342,21 @@ impl ZoneSweepJob {
                 files: vec![],
             });
         }
-        rows.retain(|x| grid.contains(&(x.zones, x.run)));
+        // results.csv keeps every finished cell (another sweep's on the folder too); the
+        // tables are this grid's.
+        let all = union(rows, args.finished_rows(&results_path, &grid)?);
+        let rows: Vec<RunRow> = all
+            .iter()
+            .filter(|x| grid.contains(&(x.zones, x.run)))
+            .cloned()
+            .collect();
         if rows.is_empty() {
             bail!(
                 "no cell of {} is finished; run the cells first (see --print-jobs)",
                 args.out.display()
             );
         }
-        common::write_text(&results_path, &format_results(&rows))?;
+        common::write_text(&results_path, &format_results(&all))?;
         let missing: Vec<String> = grid
             .iter()
             .filter(|&&(n, r)| !rows.iter().any(|x| (x.zones, x.run) == (n, r)))
@@ -469,6 +468,17 @@ impl ZoneSweepJob {
         }
         Ok(row)
     }
+}
+
+/// The rows of `a` and those of `b` for cells `a` lacks, sorted by cell.
+fn union(mut a: Vec<RunRow>, b: Vec<RunRow>) -> Vec<RunRow> {
+    for row in b {
+        if !a.iter().any(|x| (x.zones, x.run) == (row.zones, row.run)) {
+            a.push(row);
+        }
+    }
+    a.sort_by_key(|x| (x.zones, x.run));
+    a
 }
 
 /// Deletes a recorded run's weights, descriptors and exports, keeping its zone table and map
