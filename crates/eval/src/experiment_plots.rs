@@ -129,6 +129,8 @@ fn axes(
     if text {
         mesh.x_desc(x_desc)
             .y_desc(unit)
+            .x_label_formatter(&tick_label)
+            .y_label_formatter(&tick_label)
             .label_style(("sans-serif", 13));
     } else {
         mesh.x_labels(0).y_labels(0);
@@ -138,6 +140,18 @@ fn axes(
         border(chart, x, y)?;
     }
     Ok(())
+}
+
+/// An axis tick as a person writes it: `40` rather than `40.0`, `0.25` rather than
+/// `0.25000000000000006`.
+fn tick_label(v: &f64) -> String {
+    let s = format!("{v:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_string()
+    } else {
+        s.to_string()
+    }
 }
 
 fn panel_chart<'a, 'b>(
@@ -468,6 +482,19 @@ mod tests {
         assert!((s.q3 - 7.75).abs() < 1e-12);
         assert_eq!((s.lo, s.hi), (1.0, 9.0));
         assert_eq!(s.outliers, vec![100.0]);
+    }
+
+    #[test]
+    fn tick_labels_drop_needless_decimals() {
+        let l = |v: f64| tick_label(&v);
+        assert_eq!(
+            (l(40.0), l(-5.0), l(-0.0)),
+            ("40".into(), "-5".into(), "0".into())
+        );
+        assert_eq!(
+            (l(0.25), l(0.1 + 0.2), l(2.5)),
+            ("0.25".into(), "0.3".into(), "2.5".into())
+        );
     }
 
     #[test]

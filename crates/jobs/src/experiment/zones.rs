@@ -431,15 +431,9 @@ impl ZoneSweepJob {
                 rot.push(dr);
             }
         }
-        let stats = |v: &mut Vec<f64>| -> (f64, f64) {
-            if v.is_empty() {
-                return (f64::NAN, f64::NAN);
-            }
-            v.sort_by(f64::total_cmp);
-            (v.iter().sum::<f64>() / v.len() as f64, v[v.len() / 2])
-        };
-        let (mp, dp) = stats(&mut pos);
-        let (mr, dr) = stats(&mut rot);
+        use endoloc_eval::stats::{mean, median};
+        let (mp, dp) = (mean(&pos), median(&pos));
+        let (mr, dr) = (mean(&rot), median(&rot));
         let row = RunRow {
             zones: n,
             run: r,
@@ -530,13 +524,11 @@ fn write_outputs(
         .collect();
     let png = args.out.join("zones.png");
     plot_error_boxes(&columns, "number of zones", &png, &PlotConfig::default())?;
+    // The median over the runs that produced a figure (NaN when none did); with an even
+    // number of runs, the mean of the two middle ones.
     let med = |mut v: Vec<f64>| -> f64 {
         v.retain(|x| x.is_finite());
-        if v.is_empty() {
-            return f64::NAN;
-        }
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
+        endoloc_eval::stats::median(&v)
     };
     let header = [
         "zones",
