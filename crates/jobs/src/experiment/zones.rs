@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use crate::bail;
 use crate::error::{Context, Result};
+use endoloc_eval::stats::{mean, median};
 use endoloc_eval::{BoxColumn, HtmlReport, PlotConfig, plot_error_boxes};
 use endoloc_geometry::Status;
 use endoloc_net::ZoneClassifier;
@@ -431,7 +432,6 @@ impl ZoneSweepJob {
                 rot.push(dr);
             }
         }
-        use endoloc_eval::stats::{mean, median};
         let (mp, dp) = (mean(&pos), median(&pos));
         let (mr, dr) = (mean(&rot), median(&rot));
         let row = RunRow {
@@ -528,7 +528,7 @@ fn write_outputs(
     // number of runs, the mean of the two middle ones.
     let med = |mut v: Vec<f64>| -> f64 {
         v.retain(|x| x.is_finite());
-        endoloc_eval::stats::median(&v)
+        median(&v)
     };
     let header = [
         "zones",
