@@ -20,11 +20,13 @@ pub mod ape;
 pub mod association;
 pub mod error;
 pub mod experiment_plots;
+pub mod frame_error;
 pub mod frames_csv;
 pub mod html;
 pub mod metrics;
 pub mod npy;
 pub mod output;
+pub mod plot_data;
 pub mod plots;
 pub mod report;
 pub mod rows_reader;
@@ -56,7 +58,8 @@ pub use metrics::{
     EvalConfig, Evaluation, FrameEvaluation, METRICS_FORMAT, Metrics, evaluate, evaluate_files,
 };
 pub use output::{OutputDir, refuse_existing, write_atomic};
-pub use plots::{Cdf, PLOT_FRAMES, PlotConfig, PlotData, TrackPoint, text_available};
+pub use plot_data::{Cdf, PLOT_FRAMES, PlotData, TrackPoint};
+pub use plots::{PlotConfig, text_available};
 pub use report::{Sources, render_report};
 pub use rpe::{RpeConfig, RpeErrors, rpe_errors};
 pub use source::{EvalFiles, EvalInputs, EvalSource};

@@ -19,7 +19,7 @@
 //! covariance when one is asked for, once to compute every pair's error. The errors go to
 //! fixed-size records (memory, or an unnamed temporary file for [`EvalFiles`]), from which
 //! the statistics are computed exactly in nine more passes (radix selection, `select.rs`); the plots
-//! keep at most [`crate::plots::PLOT_FRAMES`] frames.
+//! keep at most [`crate::plot_data::PLOT_FRAMES`] frames.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::path::PathBuf;
@@ -31,8 +31,9 @@ use crate::EvalError;
 use crate::align::{AlignmentKind, Similarity3, UmeyamaSums};
 use crate::ape::PoseRelation;
 use crate::association::{AssociationConfig, PairStream, PosePair, TrajectoryScan, check_config};
+use crate::frame_error::{status_code, status_of};
 use crate::frames_csv::FrameRecord;
-use crate::plots::{PlotCollector, PlotData};
+use crate::plot_data::{PlotCollector, PlotData};
 use crate::rpe::{RpeConfig, relative_error_pose};
 use crate::select::{GroupSummary, Want, summarise};
 use crate::source::{EvalFiles, EvalSource, Rows};
@@ -40,6 +41,7 @@ use crate::spill::{Fields, Record, Spill};
 use crate::stats::Statistics;
 use crate::zones_csv::ZoneLabel;
 
+pub use crate::frame_error::FrameEvaluation;
 pub use crate::source::EvalInputs;
 
 /// Identifies the layout of `metrics.json`.
@@ -55,86 +57,6 @@ pub struct EvalConfig {
     pub alignment: AlignmentKind,
     /// Relative pose error settings.
     pub rpe: RpeConfig,
-}
-
-/// The error of one test frame: a row of `errors.csv`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FrameEvaluation {
-    /// 0-based test frame index.
-    pub frame: usize,
-    /// Ground-truth timestamp, seconds.
-    pub timestamp_s: f64,
-    /// Whether an estimated pose is associated with the frame.
-    pub localized: bool,
-    /// Position error, mm (after alignment, if any).
-    pub position_mm: Option<f64>,
-    /// Orientation error, degrees.
-    pub orientation_deg: Option<f64>,
-    /// Status from `frames.csv`.
-    pub status: Option<Status>,
-    /// Predicted zone from `frames.csv`.
-    pub zone: Option<usize>,
-    /// True zone.
-    pub gt_zone: Option<usize>,
-}
-
-const NONE_U64: u64 = u64::MAX;
-
-fn status_code(s: Option<Status>) -> u8 {
-    match s {
-        None => 0,
-        Some(Status::Refined) => 1,
-        Some(Status::InitOnly) => 2,
-        Some(Status::Rejected) => 3,
-    }
-}
-
-fn status_of(code: u8) -> Option<Status> {
-    match code {
-        1 => Some(Status::Refined),
-        2 => Some(Status::InitOnly),
-        3 => Some(Status::Rejected),
-        _ => None,
-    }
-}
-
-fn opt_u64(v: Option<usize>) -> u64 {
-    v.map_or(NONE_U64, |x| x as u64)
-}
-
-fn u64_opt(v: u64) -> Option<usize> {
-    (v != NONE_U64).then_some(v as usize)
-}
-
-impl Record for FrameEvaluation {
-    const SIZE: usize = 8 + 8 + 1 + 8 + 8 + 1 + 8 + 8;
-    fn encode(&self, out: &mut Vec<u8>) {
-        out.extend((self.frame as u64).to_le_bytes());
-        out.extend(self.timestamp_s.to_le_bytes());
-        out.push(u8::from(self.localized));
-        out.extend(self.position_mm.unwrap_or(f64::NAN).to_le_bytes());
-        out.extend(self.orientation_deg.unwrap_or(f64::NAN).to_le_bytes());
-        out.push(status_code(self.status));
-        out.extend(opt_u64(self.zone).to_le_bytes());
-        out.extend(opt_u64(self.gt_zone).to_le_bytes());
-    }
-    fn decode(b: &[u8]) -> Self {
-        let mut f = Fields(b);
-        let frame = f.u64() as usize;
-        let timestamp_s = f.f64();
-        let localized = f.u8() == 1;
-        let (p, r) = (f.f64(), f.f64());
-        Self {
-            frame,
-            timestamp_s,
-            localized,
-            position_mm: localized.then_some(p),
-            orientation_deg: localized.then_some(r),
-            status: status_of(f.u8()),
-            zone: u64_opt(f.u64()),
-            gt_zone: u64_opt(f.u64()),
-        }
-    }
 }
 
 /// The errors of one associated pair (APE) or one RPE pair, with the status of its frame.
@@ -304,7 +226,7 @@ pub struct Metrics {
 pub struct Evaluation {
     /// The summary written to `metrics.json`.
     pub metrics: Metrics,
-    /// What the plots draw (at most [`crate::plots::PLOT_FRAMES`] frames).
+    /// What the plots draw (at most [`crate::plot_data::PLOT_FRAMES`] frames).
     pub plots: PlotData,
     /// One record per ground-truth frame, in frame order.
     frames: Spill<FrameEvaluation>,

@@ -13,7 +13,7 @@
 use endoloc_features::{Describe, Feature, Match, MatcherConfig};
 use endoloc_geometry::{Camera, Pose};
 
-use crate::map::MapPoint;
+use crate::map_point::MapPoint;
 
 /// Matches `features` (query) to `points` (train) whose projection with `t_wc` (camera-to-world,
 /// mm) lies within `radius_px` pixels of the feature; sorted by query index. Points behind the

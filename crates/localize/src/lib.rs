@@ -17,6 +17,7 @@ pub mod export;
 pub mod guided;
 pub mod map;
 pub mod map_io;
+pub mod map_point;
 pub mod motion;
 pub mod pipeline;
 

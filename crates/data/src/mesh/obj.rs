@@ -3,7 +3,7 @@
 //! `s`, `usemtl`, `mtllib`, `l`, …) are ignored; faces with more than 3 vertices are
 //! fan-triangulated.
 
-use super::{TriMesh, fan};
+use super::tri_mesh::{TriMesh, fan};
 use crate::DataError;
 use nalgebra::Point3;
 use std::path::Path;

@@ -4,7 +4,7 @@
 //! and ignored; faces with more than 3 vertices are fan-triangulated.
 
 use super::tokens::Tokens;
-use super::{TriMesh, fan};
+use super::tri_mesh::{TriMesh, fan};
 use crate::DataError;
 use nalgebra::Point3;
 use std::path::Path;

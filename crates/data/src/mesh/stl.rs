@@ -4,7 +4,7 @@
 //! vertex (in order of first appearance), which restores the connectivity of a surface.
 
 use super::tokens::Tokens;
-use super::{TriMesh, fan};
+use super::tri_mesh::{TriMesh, fan};
 use crate::DataError;
 use nalgebra::Point3;
 use std::collections::HashMap;

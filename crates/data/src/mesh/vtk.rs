@@ -4,7 +4,7 @@
 //! `POINT_DATA` / `CELL_DATA` (attributes are not needed for a surface).
 
 use super::tokens::Tokens;
-use super::{TriMesh, fan};
+use super::tri_mesh::{TriMesh, fan};
 use crate::DataError;
 use nalgebra::Point3;
 use std::path::Path;

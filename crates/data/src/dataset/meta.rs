@@ -1,0 +1,229 @@
+//! `dataset.toml`: what a dataset is (name, source, camera, simulation settings).
+
+use crate::fsutil::{hidden_sibling, parent_dir, read_text, sync_dir, write_atomic};
+use crate::png_io::{
+    check_len, decode, decode_depth_mm, decode_png, depth_code_from_mm, write_png,
+};
+use crate::sections_csv::{read_sections, write_sections};
+use crate::trajectory::{StampedPose, read_tum, write_tum};
+use crate::{DataError, Section};
+use endoloc_geometry::Camera;
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use super::layout::{FORMAT_VERSION, MASK_FILE, UNITS};
+
+/// The contents of `dataset.toml`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(try_from = "meta_toml::MetaRepr", into = "meta_toml::MetaRepr")]
+pub struct DatasetMeta {
+    /// Human-readable dataset name.
+    pub name: String,
+    /// Format version; [`FORMAT_VERSION`] for datasets written by this crate.
+    pub format_version: u32,
+    /// Length unit of every file: always `"mm"`.
+    pub units: String,
+    /// Provenance, free form (tool, version, command line, original source and licence, …).
+    #[serde(default)]
+    pub source: toml::Table,
+    /// The camera all images of all sequences were taken with. Stored as a `[camera]` table
+    /// with `model = "pinhole"`, size, intrinsics in pixels and an optional
+    /// `[camera.distortion]` table (`model = "radial-tangential"` or `"fisheye"`).
+    pub camera: Camera,
+    /// The image mask, a file name relative to the dataset folder (`[camera] mask`, usually
+    /// [`MASK_FILE`]): an 8-bit image of the frames' size, non-zero where the image is valid
+    /// (inside the field stop, off the black border). `None`: every pixel is valid.
+    pub mask: Option<String>,
+    /// The simulator's full configuration when the dataset was simulated (opaque here), so
+    /// the dataset can be regenerated from its own files.
+    pub simulation: Option<toml::Table>,
+}
+
+impl DatasetMeta {
+    /// Metadata for a new dataset: current format version, units mm, empty provenance, no
+    /// simulation config.
+    pub fn new(name: impl Into<String>, camera: Camera) -> Self {
+        DatasetMeta {
+            name: name.into(),
+            format_version: FORMAT_VERSION,
+            units: UNITS.to_string(),
+            source: toml::Table::new(),
+            camera,
+            mask: None,
+            simulation: None,
+        }
+    }
+
+    /// Checks version, units and camera; the message says what was expected.
+    ///
+    /// # Errors
+    /// A message for the first problem found.
+    pub fn validate(&self) -> Result<(), String> {
+        self.problems().into_iter().next().map_or(Ok(()), Err)
+    }
+
+    /// Every problem with version, units and camera.
+    pub(crate) fn problems(&self) -> Vec<String> {
+        let mut p = Vec::new();
+        if self.format_version != FORMAT_VERSION {
+            p.push(format!(
+                "format_version = {}; expected {FORMAT_VERSION}",
+                self.format_version
+            ));
+        }
+        if self.units != UNITS {
+            p.push(format!("units = {:?}; expected \"{UNITS}\"", self.units));
+        }
+        if let Err(e) = self.camera.validate() {
+            p.push(format!("[camera]: {e}"));
+        }
+        if let Some(m) = &self.mask {
+            let path = Path::new(m);
+            if m.is_empty()
+                || path.is_absolute()
+                || path.components().any(|c| c.as_os_str() == "..")
+            {
+                p.push(format!(
+                    "[camera] mask = {m:?}; expected a file name inside the dataset folder, e.g. \"{MASK_FILE}\""
+                ));
+            }
+        }
+        p
+    }
+
+    /// Parses `dataset.toml` text (without validating values).
+    ///
+    /// # Errors
+    /// [`DataError::Parse`] naming the line and what was expected.
+    pub fn from_toml_str(path: &Path, text: &str) -> Result<Self, DataError> {
+        toml::from_str::<DatasetMeta>(text).map_err(|e| {
+            let (line, message) = crate::toml_error_line(text, &e);
+            DataError::parse(path, line, message)
+        })
+    }
+
+    /// Reads and validates `dataset.toml`.
+    ///
+    /// # Errors
+    /// [`DataError::Io`], [`DataError::Parse`], or [`DataError::Invalid`] for a wrong
+    /// version, units or camera.
+    pub fn read(path: &Path) -> Result<Self, DataError> {
+        let text = read_text(path)?;
+        let meta = Self::from_toml_str(path, &text)?;
+        meta.validate().map_err(|m| DataError::invalid(path, m))?;
+        Ok(meta)
+    }
+
+    /// The TOML text of `dataset.toml`, with a header comment.
+    ///
+    /// # Errors
+    /// A message when the provenance or simulation tables cannot be written as TOML.
+    pub fn to_toml_string(&self) -> Result<String, String> {
+        let body = toml::to_string(self).map_err(|e| e.to_string())?;
+        Ok(format!(
+            "# endoloc dataset, format version {FORMAT_VERSION}: lengths in mm, poses T_wc (camera-to-world)\n{body}"
+        ))
+    }
+}
+
+/// `dataset.toml` as stored: `[camera]` holds the [`Camera`], `model = "pinhole"` and the mask.
+mod meta_toml {
+    use crate::dataset::meta::DatasetMeta;
+    use endoloc_geometry::{Camera, Distortion};
+    use serde::{Deserialize, Serialize};
+
+    fn pinhole() -> String {
+        "pinhole".to_string()
+    }
+
+    /// The camera model, refused here (so the error points at its line) unless `pinhole`.
+    fn pinhole_model<'de, D: serde::Deserializer<'de>>(d: D) -> Result<String, D::Error> {
+        let model = String::deserialize(d)?;
+        if model != "pinhole" {
+            return Err(serde::de::Error::custom(format!(
+                "camera model {model:?} is not supported; expected \"pinhole\" (lens distortion goes in [camera.distortion])"
+            )));
+        }
+        Ok(model)
+    }
+
+    #[derive(Serialize, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    pub(super) struct CameraRepr {
+        #[serde(default = "pinhole", deserialize_with = "pinhole_model")]
+        model: String,
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        mask: Option<String>,
+        #[serde(default, skip_serializing_if = "Distortion::is_none")]
+        distortion: Distortion,
+    }
+
+    #[derive(Serialize, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    pub(super) struct MetaRepr {
+        name: String,
+        format_version: u32,
+        units: String,
+        #[serde(default)]
+        source: toml::Table,
+        camera: CameraRepr,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        simulation: Option<toml::Table>,
+    }
+
+    impl TryFrom<MetaRepr> for DatasetMeta {
+        type Error = String;
+        fn try_from(r: MetaRepr) -> Result<Self, String> {
+            let c = r.camera;
+            Ok(DatasetMeta {
+                name: r.name,
+                format_version: r.format_version,
+                units: r.units,
+                source: r.source,
+                camera: Camera {
+                    width: c.width,
+                    height: c.height,
+                    fx: c.fx,
+                    fy: c.fy,
+                    cx: c.cx,
+                    cy: c.cy,
+                    distortion: c.distortion,
+                },
+                mask: c.mask,
+                simulation: r.simulation,
+            })
+        }
+    }
+
+    impl From<DatasetMeta> for MetaRepr {
+        fn from(m: DatasetMeta) -> Self {
+            let c = m.camera;
+            MetaRepr {
+                name: m.name,
+                format_version: m.format_version,
+                units: m.units,
+                source: m.source,
+                camera: CameraRepr {
+                    model: pinhole(),
+                    width: c.width,
+                    height: c.height,
+                    fx: c.fx,
+                    fy: c.fy,
+                    cx: c.cx,
+                    cy: c.cy,
+                    mask: m.mask,
+                    distortion: c.distortion,
+                },
+                simulation: m.simulation,
+            }
+        }
+    }
+}

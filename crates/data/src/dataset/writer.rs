@@ -1,0 +1,429 @@
+//! Writing a dataset: a hidden staging folder renamed into place only when every sequence is
+//! finished.
+
+use crate::fsutil::{hidden_sibling, parent_dir, read_text, sync_dir, write_atomic};
+use crate::png_io::{
+    check_len, decode, decode_depth_mm, decode_png, depth_code_from_mm, write_png,
+};
+use crate::sections_csv::{read_sections, write_sections};
+use crate::trajectory::{StampedPose, read_tum, write_tum};
+use crate::{DataError, Section};
+use endoloc_geometry::Camera;
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use super::layout::{DEPTH_DIR, IMAGES_DIR, MASK_FILE, META_FILE, POSES_FILE, SECTIONS_FILE};
+use super::mask::{check_mask, write_mask_png};
+use super::meta::DatasetMeta;
+
+/// Locks a mutex, recovering the data if another thread panicked while holding it (the state
+/// guarded here stays consistent after any single update).
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// State shared by a [`DatasetWriter`] and its [`SequenceWriter`]s.
+#[derive(Debug)]
+struct WriterShared {
+    staging: PathBuf,
+    camera: Camera,
+    /// Sequence name → finished.
+    sequences: Mutex<BTreeMap<String, bool>>,
+}
+
+/// Writes a dataset; see the [module docs](self).
+///
+/// ```no_run
+/// # use endoloc_data::{DatasetMeta, DatasetWriter, StampedPose};
+/// # fn demo(meta: DatasetMeta, poses: Vec<StampedPose>, img: Vec<u8>) -> Result<(), endoloc_data::DataError> {
+/// let writer = DatasetWriter::create("out/sim".as_ref(), &meta, false)?;
+/// let train = writer.sequence("train")?;
+/// train.write_rgb(0, meta.camera.width, meta.camera.height, &img)?; // from any thread
+/// train.finish(&poses, None)?;
+/// let dir = writer.finish()?; // only now does out/sim appear
+/// # Ok(()) }
+/// ```
+#[derive(Debug)]
+pub struct DatasetWriter {
+    dir: PathBuf,
+    meta: DatasetMeta,
+    overwrite: bool,
+    shared: Arc<WriterShared>,
+    finished: bool,
+}
+
+impl DatasetWriter {
+    /// Starts a dataset that will appear at `dir` when [`DatasetWriter::finish`] succeeds.
+    ///
+    /// Creates `dir`'s parent folders if needed and a hidden staging folder next to `dir`.
+    ///
+    /// # Errors
+    /// [`DataError::AlreadyExists`] if `dir` exists and `overwrite` is false (checked before
+    /// any work); [`DataError::Invalid`] if the metadata is invalid (version, units, camera);
+    /// [`DataError::Io`] if the staging folder cannot be created.
+    pub fn create(dir: &Path, meta: &DatasetMeta, overwrite: bool) -> Result<Self, DataError> {
+        if !overwrite && dir.symlink_metadata().is_ok() {
+            return Err(DataError::AlreadyExists {
+                path: dir.to_path_buf(),
+            });
+        }
+        if dir.file_name().is_none() {
+            return Err(DataError::invalid(
+                dir,
+                "expected a dataset folder path ending in a folder name",
+            ));
+        }
+        meta.validate()
+            .map_err(|m| DataError::invalid(dir.join(META_FILE), m))?;
+        let parent = parent_dir(dir);
+        std::fs::create_dir_all(&parent).map_err(|e| DataError::io(&parent, e))?;
+        // Staging folders of killed runs are tidied away before a new one is made.
+        crate::fsutil::remove_stale_siblings(dir, "staging");
+        let staging = hidden_sibling(dir, "staging");
+        std::fs::create_dir(&staging).map_err(|e| DataError::io(&staging, e))?;
+        Ok(DatasetWriter {
+            dir: dir.to_path_buf(),
+            meta: meta.clone(),
+            overwrite,
+            shared: Arc::new(WriterShared {
+                staging,
+                camera: meta.camera,
+                sequences: Mutex::new(BTreeMap::new()),
+            }),
+            finished: false,
+        })
+    }
+
+    /// The destination folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The metadata that will be written.
+    pub fn meta(&self) -> &DatasetMeta {
+        &self.meta
+    }
+
+    /// Starts sequence `name` (a plain folder name such as `train` or `test`).
+    ///
+    /// # Errors
+    /// [`DataError::Invalid`] for an empty, hidden or path-like name or one already started;
+    /// [`DataError::Io`] if its folders cannot be created.
+    pub fn sequence(&self, name: &str) -> Result<SequenceWriter, DataError> {
+        let bad = name.is_empty()
+            || name.starts_with('.')
+            || name.contains(['/', '\\', ':'])
+            || name.chars().any(char::is_control);
+        if bad {
+            return Err(DataError::invalid(
+                self.dir.join(name),
+                format!(
+                    "sequence name {name:?}: expected a plain folder name (no '/', '\\', ':' or leading '.')"
+                ),
+            ));
+        }
+        {
+            let mut seqs = lock(&self.shared.sequences);
+            if seqs.contains_key(name) {
+                return Err(DataError::invalid(
+                    self.dir.join(name),
+                    format!("sequence {name:?} was already started in this dataset"),
+                ));
+            }
+            seqs.insert(name.to_string(), false);
+        }
+        let dir = self.shared.staging.join(name);
+        let images = dir.join(IMAGES_DIR);
+        std::fs::create_dir_all(&images)
+            .map_err(|e| DataError::io(self.dir.join(name).join(IMAGES_DIR), e))?;
+        Ok(SequenceWriter {
+            name: name.to_string(),
+            final_dir: self.dir.join(name),
+            dir,
+            shared: Arc::clone(&self.shared),
+            frames: Mutex::new(FrameLog::default()),
+        })
+    }
+
+    /// Writes the image mask (8-bit, the camera's size, non-zero = valid) as [`MASK_FILE`] and
+    /// names it in `dataset.toml` (`[camera] mask`).
+    ///
+    /// # Errors
+    /// [`DataError::Invalid`] for a mask of another size or without a valid pixel;
+    /// [`DataError::Io`] if writing fails.
+    pub fn write_mask(&mut self, mask: &image::GrayImage) -> Result<(), DataError> {
+        let path = self.shared.staging.join(MASK_FILE);
+        check_mask(&path, mask, &self.meta.camera)
+            .and_then(|()| write_mask_png(&path, mask))
+            .map_err(|e| e.relocated(&self.shared.staging, &self.dir))?;
+        self.meta.mask = Some(MASK_FILE.to_string());
+        Ok(())
+    }
+
+    /// Writes `dataset.toml` and moves the dataset into place at its destination (replacing
+    /// an existing folder only now, when `overwrite` was given). Returns the destination.
+    ///
+    /// # Errors
+    /// [`DataError::Invalid`] if a started sequence was not finished;
+    /// [`DataError::AlreadyExists`] if the destination appeared meanwhile and overwriting was
+    /// not asked for; [`DataError::Io`] if writing or renaming fails. On error nothing is left
+    /// at the destination that was not there before, and the staging folder is removed.
+    pub fn finish(mut self) -> Result<PathBuf, DataError> {
+        let unfinished: Vec<String> = lock(&self.shared.sequences)
+            .iter()
+            .filter(|(_, done)| !**done)
+            .map(|(n, _)| n.clone())
+            .collect();
+        if !unfinished.is_empty() {
+            return Err(DataError::invalid(
+                &self.dir,
+                format!(
+                    "sequence(s) {} were started but not finished; call SequenceWriter::finish for each",
+                    unfinished.join(", ")
+                ),
+            ));
+        }
+        let staging = self.shared.staging.clone();
+        let meta_path = staging.join(META_FILE);
+        let text = self
+            .meta
+            .to_toml_string()
+            .map_err(|m| DataError::invalid(self.dir.join(META_FILE), m))?;
+        write_atomic(&meta_path, text.as_bytes()).map_err(|e| e.relocated(&staging, &self.dir))?;
+        sync_dir(&staging);
+
+        let exists = self.dir.symlink_metadata().is_ok();
+        if exists && !self.overwrite {
+            return Err(DataError::AlreadyExists {
+                path: self.dir.clone(),
+            });
+        }
+        if exists {
+            let old = hidden_sibling(&self.dir, "old");
+            std::fs::rename(&self.dir, &old).map_err(|e| DataError::io(&self.dir, e))?;
+            if let Err(e) = std::fs::rename(&staging, &self.dir) {
+                // Put the old dataset back; the staging folder is removed by Drop.
+                let _ = std::fs::rename(&old, &self.dir);
+                return Err(DataError::io(&self.dir, e));
+            }
+            self.finished = true;
+            sync_dir(&parent_dir(&self.dir));
+            let removed = if old.is_dir() {
+                std::fs::remove_dir_all(&old)
+            } else {
+                std::fs::remove_file(&old)
+            };
+            removed.map_err(|e| DataError::io(&old, e))?;
+        } else {
+            std::fs::rename(&staging, &self.dir).map_err(|e| DataError::io(&self.dir, e))?;
+            self.finished = true;
+            sync_dir(&parent_dir(&self.dir));
+        }
+        Ok(self.dir.clone())
+    }
+}
+
+impl Drop for DatasetWriter {
+    /// An unfinished dataset (error, panic, early return) leaves nothing behind.
+    fn drop(&mut self) {
+        if !self.finished {
+            let _ = std::fs::remove_dir_all(&self.shared.staging);
+        }
+    }
+}
+
+#[derive(Debug, Default)]
+struct FrameLog {
+    images: BTreeSet<usize>,
+    depth: BTreeSet<usize>,
+}
+
+/// Writes one sequence of a dataset. It is `Sync`: `write_*` may be called from many threads
+/// at once (e.g. a rayon loop over frames), in any frame order.
+#[derive(Debug)]
+pub struct SequenceWriter {
+    name: String,
+    dir: PathBuf,
+    final_dir: PathBuf,
+    shared: Arc<WriterShared>,
+    frames: Mutex<FrameLog>,
+}
+
+impl SequenceWriter {
+    /// The sequence name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn check_size(&self, path: &Path, width: u32, height: u32) -> Result<(), DataError> {
+        let cam = &self.shared.camera;
+        if (width, height) != (cam.width, cam.height) {
+            return Err(DataError::image(
+                path,
+                format!(
+                    "image is {width}x{height}; expected the camera's size {}x{}",
+                    cam.width, cam.height
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn image_path(&self, frame: usize) -> PathBuf {
+        self.dir.join(IMAGES_DIR).join(format!("{frame:06}.png"))
+    }
+
+    fn write_image(
+        &self,
+        frame: usize,
+        width: u32,
+        height: u32,
+        data: &[u8],
+        color: png::ColorType,
+        channels: usize,
+    ) -> Result<(), DataError> {
+        let path = self.image_path(frame);
+        self.check_size(&path, width, height)
+            .and_then(|()| check_len(&path, width, height, channels, data.len()))
+            .and_then(|()| write_png(&path, width, height, color, png::BitDepth::Eight, data))
+            .map_err(|e| e.relocated(&self.dir, &self.final_dir))?;
+        lock(&self.frames).images.insert(frame);
+        Ok(())
+    }
+
+    /// Writes frame `frame` as an 8-bit RGB PNG `images/{frame:06}.png`; `rgb` is row-major,
+    /// 3 bytes per pixel, `width × height` the camera's size.
+    ///
+    /// # Errors
+    /// [`DataError::Image`] for a wrong size or buffer length; [`DataError::Io`].
+    pub fn write_rgb(
+        &self,
+        frame: usize,
+        width: u32,
+        height: u32,
+        rgb: &[u8],
+    ) -> Result<(), DataError> {
+        self.write_image(frame, width, height, rgb, png::ColorType::Rgb, 3)
+    }
+
+    /// Writes frame `frame` as an 8-bit grey PNG `images/{frame:06}.png`.
+    ///
+    /// # Errors
+    /// [`DataError::Image`] for a wrong size or buffer length; [`DataError::Io`].
+    pub fn write_gray(
+        &self,
+        frame: usize,
+        width: u32,
+        height: u32,
+        gray: &[u8],
+    ) -> Result<(), DataError> {
+        self.write_image(frame, width, height, gray, png::ColorType::Grayscale, 1)
+    }
+
+    /// Writes the depth map of frame `frame` (depth along the optical axis z, mm) as a 16-bit
+    /// grey PNG `depth/{frame:06}.png` with value `round(mm × 100)`; 0 (no depth) for
+    /// non-finite, non-positive or > 655.35 mm depths.
+    ///
+    /// # Errors
+    /// [`DataError::Image`] for a wrong size or buffer length; [`DataError::Io`].
+    pub fn write_depth(
+        &self,
+        frame: usize,
+        width: u32,
+        height: u32,
+        depth_mm: &[f32],
+    ) -> Result<(), DataError> {
+        let dir = self.dir.join(DEPTH_DIR);
+        let path = dir.join(format!("{frame:06}.png"));
+        let write = || {
+            self.check_size(&path, width, height)?;
+            check_len(&path, width, height, 1, depth_mm.len())?;
+            let mut bytes = Vec::with_capacity(depth_mm.len() * 2);
+            for &d in depth_mm {
+                bytes.extend_from_slice(&depth_code_from_mm(d).to_be_bytes());
+            }
+            std::fs::create_dir_all(&dir).map_err(|e| DataError::io(&dir, e))?;
+            write_png(
+                &path,
+                width,
+                height,
+                png::ColorType::Grayscale,
+                png::BitDepth::Sixteen,
+                &bytes,
+            )
+        };
+        write().map_err(|e| e.relocated(&self.dir, &self.final_dir))?;
+        lock(&self.frames).depth.insert(frame);
+        Ok(())
+    }
+
+    /// Number of distinct frames whose image has been written so far.
+    pub fn frames_written(&self) -> usize {
+        lock(&self.frames).images.len()
+    }
+
+    /// Completes the sequence: writes `poses.txt` (one TUM line per image, same order) and,
+    /// when given, `sections.csv`.
+    ///
+    /// # Errors
+    /// [`DataError::Invalid`] when the images written are not exactly frames
+    /// `0..poses.len()`, when depth maps were written for some frames but not all, when
+    /// `sections` has a different length, or when a pose is not finite; [`DataError::Io`].
+    pub fn finish(
+        self,
+        poses: &[StampedPose],
+        sections: Option<&[Section]>,
+    ) -> Result<(), DataError> {
+        let frames = std::mem::take(&mut *lock(&self.frames));
+        let n = poses.len();
+        let images_dir = self.final_dir.join(IMAGES_DIR);
+        if frames.images.len() != n {
+            return Err(DataError::invalid(
+                &images_dir,
+                format!(
+                    "{} images written but {n} poses given; expected one image per pose",
+                    frames.images.len()
+                ),
+            ));
+        }
+        if let Some(missing) = (0..n).find(|f| !frames.images.contains(f)) {
+            return Err(DataError::invalid(
+                &images_dir,
+                format!("frame {missing} has no image; expected images for frames 0..{n}"),
+            ));
+        }
+        if !frames.depth.is_empty() && frames.depth != frames.images {
+            let missing = (0..n).find(|f| !frames.depth.contains(f));
+            return Err(DataError::invalid(
+                self.final_dir.join(DEPTH_DIR),
+                format!(
+                    "{} depth maps written for {n} images{}; expected depth for every frame or none",
+                    frames.depth.len(),
+                    missing.map_or(String::new(), |m| format!(" (frame {m} has none)"))
+                ),
+            ));
+        }
+        if let Some(s) = sections
+            && s.len() != n
+        {
+            return Err(DataError::invalid(
+                self.final_dir.join(SECTIONS_FILE),
+                format!(
+                    "{} section labels for {n} frames; expected one per frame",
+                    s.len()
+                ),
+            ));
+        }
+        write_tum(&self.dir.join(POSES_FILE), poses)
+            .and_then(|()| match sections {
+                Some(s) => write_sections(&self.dir.join(SECTIONS_FILE), s),
+                None => Ok(()),
+            })
+            .map_err(|e| e.relocated(&self.dir, &self.final_dir))?;
+        sync_dir(&self.dir);
+        lock(&self.shared.sequences).insert(self.name.clone(), true);
+        Ok(())
+    }
+}

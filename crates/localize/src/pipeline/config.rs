@@ -1,0 +1,135 @@
+//! The localizer's settings ([`LocalizerConfig`]), saved with every run.
+
+use std::borrow::Cow;
+use std::time::Instant;
+
+use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
+use endoloc_geometry::{
+    Camera, Pose, Reason, RegistrationConfig, RobustKernel, Status, localize_pose,
+};
+use endoloc_net::{TemporalConfig, TemporalFilter, TrackFilter, ZoneClassifier, ZonePrediction};
+use serde::{Deserialize, Serialize};
+
+use crate::LocalizeError;
+use crate::confirm::{ConfirmConfig, confirm};
+use crate::map::{Map, MapPoint};
+use crate::motion::{Gate, MotionConfig, Prediction, Track};
+
+/// Settings of the localizer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LocalizerConfig {
+    /// SURF on the test frames. `None` (default): the map's own SURF settings at twice the
+    /// map's threshold (the stronger features: cheaper to detect and match). Any descriptor
+    /// setting (`extended`, `upright`) must match the map's for the matching to mean anything.
+    pub surf: Option<SurfConfig>,
+    /// Matching test features to map points.
+    pub matcher: MatcherConfig,
+    /// Map points also come from this many zones on each side of the classified one.
+    pub neighbour_zones: usize,
+    /// Gauss-Newton, RANSAC restart and validity thresholds.
+    pub localize: RegistrationConfig,
+    /// Zone-level HMM for `--live` when a prediction carries no descriptor (the track filter,
+    /// with the model's parameters, is used otherwise).
+    pub temporal: TemporalConfig,
+    /// Zones tried, best classifier score first, until one gives a `refined` pose with
+    /// [`MotionConfig::trusted_inliers`] (beyond the paper, which trusts the top zone): a
+    /// misclassified frame usually fails to register in the wrong zone's map and succeeds in
+    /// the right one. When only weaker registrations come out, the one with the most inliers
+    /// wins. 1 = the paper's behaviour.
+    pub candidate_zones: usize,
+    /// Live mode only (beyond the paper): after a `refined` frame, the next frame is first
+    /// registered from that pose, in the zone it lies in, before the classified zones are
+    /// tried — a scope moves little between frames at 30 fps. 0 = off; otherwise the number
+    /// of frames a refined pose stays usable as the prior.
+    pub track_frames: usize,
+    /// Live mode only: when neither tracking nor the candidate zones register, also try the
+    /// zones around the last refined pose's zone (one behind, two ahead) for this many frames
+    /// after it — the scope cannot have gone far. 0 = off.
+    pub recover_frames: usize,
+    /// Live mode only: the motion model predicts a pose for at most this many frames after
+    /// the last refined one; an `init_only` frame reports that prediction (source
+    /// `predicted`) instead of its zone's median pose (a zone median can be a zone away;
+    /// an `ambiguous` frame keeps its better-supported pose), and
+    /// registrations are gated against it. 0 = no prediction: the zone median, as in the
+    /// paper.
+    pub hold_frames: usize,
+    /// Live mode only: the motion model and its gate ([`MotionConfig`]).
+    pub motion: MotionConfig,
+    /// Live mode only: run the zone classifier on every frame. Off (default): a frame that
+    /// registers from the motion model's prediction ([`LocalizerConfig::track_frames`]) is
+    /// not classified — its zone is the one its pose lies in, its `zone_score` is NaN — and
+    /// the classifier runs only when tracking fails. The zone filters are anchored at every
+    /// refined pose, so what a tracked frame's classification would have told them is
+    /// overwritten at once; skipping it saves the network's time on most frames.
+    pub classify_tracked: bool,
+    /// A frame that registers nowhere with features at the test threshold is described again
+    /// at this lower SURF threshold and tried once more (beyond the paper; its time counts in
+    /// the frame's SURF time). `None` (default): the map's threshold. `Some(0.0)`, or a value
+    /// not below the test threshold, = off.
+    pub retry_threshold: Option<f32>,
+    /// Calibration of the reported uncertainty: the standard deviations in `frames.csv` are
+    /// this many times those of the Gauss-Newton covariance (which sees only the test
+    /// keypoints' noise, not the map points' own error), chosen so that
+    /// 1.96 × `position_std_mm` bounds about 95 % of refined frames' position errors on
+    /// simulated passes.
+    pub uncertainty_scale: f64,
+    /// Per frame only (no motion model to check a registration against): the largest
+    /// calibrated position standard deviation (as in `frames.csv`) of a `refined` frame with
+    /// [`MotionConfig::trusted_inliers`] inliers or more, mm. Above it the frame is
+    /// `init_only` (reason `uncertain`) and keeps its registered pose (source `registered`).
+    /// Infinity (default): off. The stated uncertainty grows as the images shrink, so a limit
+    /// suits one camera: on the `paper` preset (640×480) 1.5 mm, with
+    /// [`LocalizerConfig::weak_max_std_mm`] 0.75 mm, leaves 2 of 2603 refined frames more
+    /// than 5 mm off instead of 85, at 81.9 % refined instead of 94.9 %.
+    pub max_std_mm: f64,
+    /// As [`LocalizerConfig::max_std_mm`], for registrations with fewer inliers: wrong
+    /// registrations (a neighbouring zone's points in a spurious consensus, the camera placed
+    /// millimetres too far along the lumen) come with few inliers and a larger stated
+    /// uncertainty than right ones.
+    pub weak_max_std_mm: f64,
+    /// Every registration is confirmed against all map points near its pose and refined again
+    /// from them ([`confirm`](mod@crate::confirm); beyond the paper). Off in this
+    /// configuration's default, the paper's pipeline; [`ConfirmConfig::standard`] turns it on,
+    /// as `endoloc localize` does unless told `--no-confirm`.
+    pub confirm: ConfirmConfig,
+}
+
+impl Default for LocalizerConfig {
+    fn default() -> Self {
+        LocalizerConfig {
+            surf: None,
+            matcher: MatcherConfig::default(),
+            neighbour_zones: 1,
+            localize: RegistrationConfig::new(),
+            temporal: TemporalConfig::default(),
+            candidate_zones: 3,
+            track_frames: 5,
+            recover_frames: 300,
+            hold_frames: 60,
+            motion: MotionConfig::default(),
+            classify_tracked: false,
+            retry_threshold: None,
+            uncertainty_scale: 3.0,
+            max_std_mm: f64::INFINITY,
+            weak_max_std_mm: f64::INFINITY,
+            confirm: ConfirmConfig::default(),
+        }
+    }
+}
+
+impl LocalizerConfig {
+    /// The SURF settings of the test frames for a map built with `map_surf`: [`Self::surf`], or
+    /// the map's at twice its threshold.
+    pub fn test_surf(&self, map_surf: &SurfConfig) -> SurfConfig {
+        self.surf
+            .clone()
+            .unwrap_or_else(|| map_surf.clone().with_threshold(2.0 * map_surf.threshold))
+    }
+
+    /// The retry threshold for a map built with `map_surf` (0 = off): [`Self::retry_threshold`],
+    /// or the map's threshold.
+    pub fn retry_threshold_for(&self, map_surf: &SurfConfig) -> f32 {
+        self.retry_threshold.unwrap_or(map_surf.threshold)
+    }
+}
