@@ -20,7 +20,10 @@ fn module_files(src: &Path, dir: &Path, out: &mut BTreeMap<Module, PathBuf>) {
                 .components()
                 .map(|c| c.as_os_str().to_string_lossy().into_owned())
                 .collect();
-            if matches!(module.last().map(String::as_str), Some("mod" | "lib" | "main")) {
+            if matches!(
+                module.last().map(String::as_str),
+                Some("mod" | "lib" | "main")
+            ) {
                 module.pop();
             }
             out.insert(module, path);
@@ -94,7 +97,12 @@ fn crate_sources() -> Vec<(String, PathBuf)> {
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.join("src").is_dir())
-        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), p.join("src")))
+        .map(|p| {
+            (
+                p.file_name().unwrap().to_string_lossy().into_owned(),
+                p.join("src"),
+            )
+        })
         .collect();
     out.sort();
     out
@@ -103,7 +111,7 @@ fn crate_sources() -> Vec<(String, PathBuf)> {
 /// Dependencies between the module files of the crate whose sources are `src`.
 fn file_graph(src: &Path) -> BTreeMap<Module, BTreeSet<Module>> {
     let mut files = BTreeMap::new();
-    module_files(&src, &src, &mut files);
+    module_files(src, src, &mut files);
     let known: BTreeSet<Module> = files.keys().cloned().collect();
     // The longest module that a path starts with (never the root: `crate::NetError` and
     // other root re-exports are not dependencies on every module).
@@ -212,8 +220,15 @@ fn module_files_depend_one_way() {
             panic!("{name}: module cycle: {}", show(&c));
         }
     }
-    let net = crate_sources().into_iter().find(|(n, _)| n == "net").unwrap().1;
-    assert!(file_graph(&net).len() > 20, "the net crate's module files were not all found");
+    let net = crate_sources()
+        .into_iter()
+        .find(|(n, _)| n == "net")
+        .unwrap()
+        .1;
+    assert!(
+        file_graph(&net).len() > 20,
+        "the net crate's module files were not all found"
+    );
 }
 
 /// The top-level modules of a crate (the files and folders under `src/`) and which others

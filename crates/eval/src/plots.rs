@@ -26,7 +26,7 @@ use plotters::prelude::*;
 use crate::EvalError;
 use crate::metrics::Evaluation;
 use crate::output::write_atomic;
-use crate::plot_data::{AlongPoint, Cdf, PlotData, TrackPoint};
+use crate::plot_data::{Cdf, TrackPoint};
 
 /// Settings of the plots.
 #[derive(Debug, Clone, Copy, PartialEq)]

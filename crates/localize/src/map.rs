@@ -9,7 +9,7 @@
 //! keeps the mean of its observations' descriptors (re-normalised) and their Laplacian sign.
 
 use endoloc_data::Sequence;
-use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
+use endoloc_features::{Feature, Matcher, MatcherConfig, Surf, SurfConfig};
 use endoloc_geometry::{Camera, Observation, TriangulationConfig, Triangulator};
 use endoloc_net::ZoneTable;
 use nalgebra::{Point2, Point3};

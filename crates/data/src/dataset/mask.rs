@@ -1,24 +1,21 @@
 //! The dataset's image mask (`mask.png`, non-zero = valid pixel): checked against the camera,
 //! read, written, and applied to frames.
 
-use crate::fsutil::{hidden_sibling, parent_dir, read_text, sync_dir, write_atomic};
-use crate::png_io::{
-    check_len, decode, decode_depth_mm, decode_png, depth_code_from_mm, write_png,
-};
-use crate::sections_csv::{read_sections, write_sections};
-use crate::trajectory::{StampedPose, read_tum, write_tum};
-use crate::{DataError, Section};
+use crate::DataError;
+use crate::fsutil::{hidden_sibling, write_atomic};
+use crate::png_io::{decode_png, write_png};
 use endoloc_geometry::Camera;
-use serde::{Deserialize, Serialize};
-use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, MutexGuard};
 
 use super::layout::{MASK_FILE, META_FILE};
 use super::meta::DatasetMeta;
 
 /// Checks a mask against the camera: its size, and at least one valid pixel.
-pub(super) fn check_mask(path: &Path, mask: &image::GrayImage, camera: &Camera) -> Result<(), DataError> {
+pub(super) fn check_mask(
+    path: &Path,
+    mask: &image::GrayImage,
+    camera: &Camera,
+) -> Result<(), DataError> {
     if (mask.width(), mask.height()) != (camera.width, camera.height) {
         return Err(DataError::invalid(
             path,

@@ -1,17 +1,10 @@
 //! `dataset.toml`: what a dataset is (name, source, camera, simulation settings).
 
-use crate::fsutil::{hidden_sibling, parent_dir, read_text, sync_dir, write_atomic};
-use crate::png_io::{
-    check_len, decode, decode_depth_mm, decode_png, depth_code_from_mm, write_png,
-};
-use crate::sections_csv::{read_sections, write_sections};
-use crate::trajectory::{StampedPose, read_tum, write_tum};
-use crate::{DataError, Section};
+use crate::DataError;
+use crate::fsutil::read_text;
 use endoloc_geometry::Camera;
 use serde::{Deserialize, Serialize};
-use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::path::Path;
 
 use super::layout::{FORMAT_VERSION, MASK_FILE, UNITS};
 

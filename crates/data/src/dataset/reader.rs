@@ -1,17 +1,11 @@
 //! Reading a dataset: its sequences, poses and labels in memory, images on demand.
 
-use crate::fsutil::{hidden_sibling, parent_dir, read_text, sync_dir, write_atomic};
-use crate::png_io::{
-    check_len, decode, decode_depth_mm, decode_png, depth_code_from_mm, write_png,
-};
-use crate::sections_csv::{read_sections, write_sections};
-use crate::trajectory::{StampedPose, read_tum, write_tum};
+use crate::png_io::{decode, decode_depth_mm};
+use crate::sections_csv::read_sections;
+use crate::trajectory::{StampedPose, read_tum};
 use crate::{DataError, Section};
-use endoloc_geometry::Camera;
-use serde::{Deserialize, Serialize};
-use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::Arc;
 
 use super::layout::{DEPTH_DIR, IMAGES_DIR, META_FILE, POSES_FILE, SECTIONS_FILE};
 use super::mask::{black_outside, read_dataset_mask};

@@ -1,15 +1,12 @@
 //! Writing a dataset: a hidden staging folder renamed into place only when every sequence is
 //! finished.
 
-use crate::fsutil::{hidden_sibling, parent_dir, read_text, sync_dir, write_atomic};
-use crate::png_io::{
-    check_len, decode, decode_depth_mm, decode_png, depth_code_from_mm, write_png,
-};
-use crate::sections_csv::{read_sections, write_sections};
-use crate::trajectory::{StampedPose, read_tum, write_tum};
+use crate::fsutil::{hidden_sibling, parent_dir, sync_dir, write_atomic};
+use crate::png_io::{check_len, depth_code_from_mm, write_png};
+use crate::sections_csv::write_sections;
+use crate::trajectory::{StampedPose, write_tum};
 use crate::{DataError, Section};
 use endoloc_geometry::Camera;
-use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};

@@ -1,19 +1,12 @@
 //! The localizer's settings ([`LocalizerConfig`]), saved with every run.
 
-use std::borrow::Cow;
-use std::time::Instant;
-
-use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
-use endoloc_geometry::{
-    Camera, Pose, Reason, RegistrationConfig, RobustKernel, Status, localize_pose,
-};
-use endoloc_net::{TemporalConfig, TemporalFilter, TrackFilter, ZoneClassifier, ZonePrediction};
+use endoloc_features::{MatcherConfig, SurfConfig};
+use endoloc_geometry::RegistrationConfig;
+use endoloc_net::TemporalConfig;
 use serde::{Deserialize, Serialize};
 
-use crate::LocalizeError;
-use crate::confirm::{ConfirmConfig, confirm};
-use crate::map::{Map, MapPoint};
-use crate::motion::{Gate, MotionConfig, Prediction, Track};
+use crate::confirm::ConfirmConfig;
+use crate::motion::MotionConfig;
 
 /// Settings of the localizer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -4,17 +4,14 @@
 use std::borrow::Cow;
 use std::time::Instant;
 
-use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
-use endoloc_geometry::{
-    Camera, Pose, Reason, RegistrationConfig, RobustKernel, Status, localize_pose,
-};
-use endoloc_net::{TemporalConfig, TemporalFilter, TrackFilter, ZoneClassifier, ZonePrediction};
-use serde::{Deserialize, Serialize};
+use endoloc_features::{Describe, Feature, Matcher, Surf};
+use endoloc_geometry::{Camera, Pose, Reason, RobustKernel, Status, localize_pose};
+use endoloc_net::{TemporalFilter, ZoneClassifier, ZonePrediction};
 
 use crate::LocalizeError;
-use crate::confirm::{ConfirmConfig, confirm};
+use crate::confirm::confirm;
 use crate::map::{Map, MapPoint};
-use crate::motion::{Gate, MotionConfig, Prediction, Track};
+use crate::motion::Gate;
 
 use super::config::LocalizerConfig;
 use super::result::{FrameResult, PoseSource, StageTimes};
@@ -70,7 +67,6 @@ pub(super) enum Prior {
     /// ([`crate::guided`]), or by brute force with `None`.
     Predicted { guide_px: Option<f64> },
 }
-
 
 impl Localizer {
     /// Combines a classifier and its map.

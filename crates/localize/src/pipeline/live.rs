@@ -4,19 +4,13 @@
 use std::borrow::Cow;
 use std::time::Instant;
 
-use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
-use endoloc_geometry::{
-    Camera, Pose, Reason, RegistrationConfig, RobustKernel, Status, localize_pose,
-};
-use endoloc_net::{TemporalConfig, TemporalFilter, TrackFilter, ZoneClassifier, ZonePrediction};
-use serde::{Deserialize, Serialize};
+use endoloc_features::Feature;
+use endoloc_geometry::{Pose, Reason, Status};
+use endoloc_net::{TemporalFilter, TrackFilter, ZonePrediction};
 
 use crate::LocalizeError;
-use crate::confirm::{ConfirmConfig, confirm};
-use crate::map::{Map, MapPoint};
-use crate::motion::{Gate, MotionConfig, Prediction, Track};
+use crate::motion::{Prediction, Track};
 
-use super::config::LocalizerConfig;
 use super::frame::{Localizer, Prior, Retry, RetryFeatures, ms};
 use super::result::{FrameResult, PoseSource, StageTimes};
 

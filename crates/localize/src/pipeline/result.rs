@@ -1,21 +1,7 @@
 //! What the localizer says of one frame: pose, status, where the pose came from, times.
 
-use std::borrow::Cow;
-use std::time::Instant;
-
-use endoloc_features::{Describe, Feature, Matcher, MatcherConfig, Surf, SurfConfig};
-use endoloc_geometry::{
-    Camera, Pose, Reason, RegistrationConfig, RobustKernel, Status, localize_pose,
-};
-use endoloc_net::{TemporalConfig, TemporalFilter, TrackFilter, ZoneClassifier, ZonePrediction};
+use endoloc_geometry::{Pose, Reason, Status};
 use serde::{Deserialize, Serialize};
-
-use crate::LocalizeError;
-use crate::confirm::{ConfirmConfig, confirm};
-use crate::map::{Map, MapPoint};
-use crate::motion::{Gate, MotionConfig, Prediction, Track};
-
-use super::config::LocalizerConfig;
 
 /// Time spent in each stage of one frame, milliseconds.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
