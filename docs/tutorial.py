@@ -33,7 +33,7 @@ print(data, "—", len(test), "test frames")
 # 2. A model: the training pass cut into 50 zones, indexed with the shipped classifier (no
 #    training), then the per-zone SURF maps triangulated with the known training poses.
 if not (model_dir / "map.toml").is_file():
-    endoloc.train(data=data_dir, zones="50", out=model_dir, pretrained="builtin-joint", epochs=0, force=True)
+    endoloc.train(data=data_dir, zones=50, out=model_dir, pretrained="builtin-joint", epochs=0, force=True)
     endoloc.map(model=model_dir, data=data_dir, force=True, progress=True)
 model = endoloc.Model.load(model_dir)
 

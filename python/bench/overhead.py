@@ -29,7 +29,7 @@ def setup(root: Path) -> tuple[Path, Path]:
     if not (data / "dataset.toml").is_file():
         endoloc.simulate(preset="small", out=data)
     if not (model / "map.toml").is_file():
-        endoloc.train(data=data, zones="50", out=model, pretrained="builtin-joint", epochs=0, force=True)
+        endoloc.train(data=data, zones=50, out=model, pretrained="builtin-joint", epochs=0, force=True)
         endoloc.map(model=model, data=data, force=True)
     return data, model
 

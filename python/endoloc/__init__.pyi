@@ -33,7 +33,7 @@ def simulate(
     *,
     preset: str = ...,
     config: StrPath | None = ...,
-    seed: int = ...,
+    seed: int | None = ...,
     gca: StrPath | None = ...,
     mesh: StrPath | None = ...,
     path: StrPath | None = ...,
@@ -63,8 +63,9 @@ def simulate(
     - ``preset``: Starting configuration: `small` or `paper`.
     - ``config``: Full configuration from a TOML file instead of the preset (as printed
       by `SimulateJob::sim_config` + `to_toml`, or a dataset's `dataset.toml`).
-    - ``seed``: Master seed: derives the colon shape, texture and both passes. With
-      `config`, a seed equal to the file's keeps the file's derived seeds.
+    - ``seed``: Master seed: derives the colon shape, texture and both passes (default:
+      the preset's, or the `config` file's). With `config`, a seed equal to the file's
+      keeps the file's derived seeds.
     - ``gca``: GCA model folder (surface `.vtk`, mid-line `.jsn`, landmarks `.json`) as
       the colon.
     - ``mesh``: Colon surface mesh (VTK legacy ASCII, OBJ, PLY or STL, mm); needs
@@ -100,7 +101,7 @@ def train(
     data: StrPath = ...,
     seq: str = ...,
     also_seq: Seq[str] = ...,
-    zones: str = ...,
+    zones: int | str = ...,
     uniform_by: str = ...,
     min_zone_frames: int = ...,
     out: StrPath = ...,
@@ -138,7 +139,8 @@ def train(
     - ``seq``: Training sequence inside the dataset.
     - ``also_seq``: Further passes through the same colon (sequences of this dataset)
       joined to the pairs.
-    - ``zones``: Zones: a number (uniform) or `expert` / `expert:N` (anatomical).
+    - ``zones``: Zones: a number (uniform, e.g. ``zones=50``) or `expert` / `expert:N`
+      (anatomical, e.g. ``zones="expert:9"``).
     - ``uniform_by``: Uniform zones of equal `arc-length` or equal `frames`.
     - ``min_zone_frames``: Fewest training frames a uniform zone holds: a zone over a fast
       stretch of the pass is widened into its neighbours until it has this many.

@@ -18,7 +18,7 @@ def benchmark(
     inflation: float | None = ...,
     train_frames: int | None = ...,
     test_frames: int | None = ...,
-    zones: str = ...,
+    zones: int | str = ...,
     pretrained: str = ...,
     epochs: int | None = ...,
     seed: int = ...,
@@ -42,7 +42,7 @@ def benchmark(
     - ``inflation``: Lumen inflation of the CT colons.
     - ``train_frames``: Frames of each training pass (default: the preset's).
     - ``test_frames``: Frames of each test pass (default: the preset's).
-    - ``zones``: Zones (a count, or `expert`).
+    - ``zones``: Zones: a count (uniform), or `expert` / `expert:N` (anatomical).
     - ``pretrained``: Start weights of the zone network (`builtin-joint`); empty: train
       from scratch on each colon.
     - ``epochs``: Training epochs (default: 0 with ``pretrained``, else the schedule's own).
@@ -62,7 +62,7 @@ def compare(
     train: str = ...,
     test: str = ...,
     out: StrPath = ...,
-    zones: str = ...,
+    zones: int | str = ...,
     epochs: int | None = ...,
     seed: int = ...,
     threshold: float = ...,
@@ -79,7 +79,7 @@ def compare(
     - ``train``: Training sequence (default ``train``).
     - ``test``: Test sequence (default ``test``).
     - ``out``: Output folder.
-    - ``zones``: Zones (a count, or `expert`).
+    - ``zones``: Zones: a count (uniform), or `expert` / `expert:N` (anatomical).
     - ``epochs``: Training epochs of the learned models (default: each schedule's own).
     - ``seed``: Seed of every training.
     - ``threshold``: SURF threshold of the maps; test frames are described at twice it
@@ -184,7 +184,7 @@ def perturb(
     every: int = ...,
     neighbours: int = ...,
     model: StrPath | None = ...,
-    zones: str = ...,
+    zones: int | str = ...,
     epochs: int | None = ...,
     seed: int = ...,
     threshold: float = ...,

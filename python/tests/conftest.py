@@ -55,7 +55,7 @@ def tiny(tmp_path_factory):
     endoloc.simulate(
         preset="small", train_frames=80, test_frames=30, width=160, height=120, out=data
     )
-    endoloc.train(data=data, zones="6", epochs=1, out=model)
+    endoloc.train(data=data, zones=6, epochs=1, out=model)
     endoloc.map(model=model, data=data, threshold=20)
     return root
 
@@ -67,7 +67,7 @@ def small(tmp_path_factory):
     root = tmp_path_factory.mktemp("small")
     data, model = root / "data", root / "model"
     endoloc.simulate(preset="small", out=data)
-    endoloc.train(data=data, zones="50", out=model, pretrained="builtin-joint", epochs=0)
+    endoloc.train(data=data, zones=50, out=model, pretrained="builtin-joint", epochs=0)
     endoloc.map(model=model, data=data)
     yield root
     shutil.rmtree(root, ignore_errors=True)

@@ -61,6 +61,24 @@ def test_keyword_arguments_are_the_command_line_options(job, cli):
     assert flags - CLI_ONLY == python - POSITIONAL.get(job, set())
 
 
+@pytest.mark.parametrize("job, field", [("localize", "confirm"), ("simulate", "depth")])
+def test_a_no_option_comes_with_its_field(job, field):
+    # `no_x=True` is `x=False`, as `--no-x` and `--x` are on the command line.
+    assert {field, "no_" + field} <= set(endoloc.options(job))
+
+
+def test_zones_are_a_count_or_anatomical(tiny, tmp_path):
+    data = tiny / "data"
+    uniform = endoloc.train(data=data, zones=8, pretrained="builtin-joint", epochs=0, out=tmp_path / "u")
+    assert "zones = 8\n" in uniform.settings
+    assert endoloc.Model.load(tmp_path / "u").zone_count == 8
+    expert = endoloc.train(data=data, zones="expert:9", pretrained="builtin-joint", epochs=0, out=tmp_path / "e")
+    assert 'zones = "expert:9"' in expert.settings
+    assert endoloc.Model.load(tmp_path / "e").zone_count == 9
+    with pytest.raises(ValueError, match="expert:N"):
+        endoloc.train(data=data, zones="many", out=tmp_path / "x")
+
+
 def test_progress_reaches_the_callback_from_worker_threads(tiny, tmp_path):
     events = []
     endoloc.localize(

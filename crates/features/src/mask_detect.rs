@@ -25,13 +25,27 @@ use crate::mask::Mask;
 
 /// Settings of [`detect_mask`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct MaskDetectConfig {
     /// A pixel whose smoothed maximum over the frames is at or below this (0–255) is black.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, default_value_t = MaskDetectConfig::default().threshold)
+    )]
     pub threshold: u8,
-    /// The valid area is shrunk by this many pixels.
+    /// Shrink the valid area by this many pixels (the dim ring at a field stop's edge).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, default_value_t = MaskDetectConfig::default().margin_px)
+    )]
     pub margin_px: f32,
-    /// A fitted shape replaces the thresholded region when their IoU is at least this.
+    /// A fitted shape (circle or rectangle) replaces the thresholded region when their IoU
+    /// is at least this.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, default_value_t = MaskDetectConfig::default().min_shape_iou)
+    )]
     pub min_shape_iou: f64,
 }
 

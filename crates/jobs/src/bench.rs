@@ -23,19 +23,26 @@ use crate::progress::{Progress, bar};
 
 /// Replays a sequence as a live stream through the localizer and reports per-stage latency.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct LiveBenchJob {
-    /// Model folder with its map.
+    /// Model folder with its map (the train and map jobs).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub model: PathBuf,
-    /// Sequence folder replayed in frame order (e.g. `data/paper/test`).
+    /// Sequence folder to replay in frame order, e.g. data/paper/test.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub seq: PathBuf,
-    /// Replay only the first this many frames (`None`: all).
+    /// Replay only the first N frames (default: all).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "N"))]
     pub frames: Option<usize>,
     /// Also run the plain path (SURF's reference loop, every frame classified, tracked frames
-    /// matched by brute force) on every frame, alternating which runs first.
+    /// matched by brute force) on every frame, alternating which runs first (on by default;
+    /// `no_compare` times the current localizer alone).
+    #[cfg_attr(feature = "cli", arg(long = "no-compare", action = clap::ArgAction::SetFalse))]
     pub compare: bool,
-    /// Confirm registrations against the map, as `endoloc localize --live` does by default
-    /// (both paths; off: `--no-confirm`).
+    /// Confirm registrations against the map, as live localization does by default (both
+    /// paths; `no_confirm` turns it off).
+    #[cfg_attr(feature = "cli", arg(long = "no-confirm", action = clap::ArgAction::SetFalse))]
     pub confirm: bool,
 }
 

@@ -35,48 +35,83 @@ use crate::progress::{Progress, bar};
 /// score to `scores`, every frame's descriptor to `descriptors` (NumPy `.npy`, float32).
 /// `Option` filter settings override the model's when set.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct ClassifyJob {
-    /// Model folder written by `TrainJob`.
+    /// Model folder written by the train job.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "MODEL"))]
     pub model: PathBuf,
-    /// Models joined to `model` into an ensemble (same pass and zones).
+    /// Ensemble: join this model too (trained on the same pass with the same zones;
+    /// repeatable). Each frame's descriptor joins every model's; the squared distance to a
+    /// training frame is the mean of the models'. Maps, camera and filter parameters are
+    /// `model`'s.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "MODEL"))]
     pub also_model: Vec<PathBuf>,
-    /// Sequence folder (`images/` and `poses.txt`).
+    /// Sequence folder (images/ and poses.txt), e.g. DATASET/test.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub seq: PathBuf,
-    /// Which zone the `zone` column holds: `none` (raw), `forward`, `viterbi`, `track` or
-    /// `smooth`.
+    /// Which zone the `zone` column holds: none (raw), forward, viterbi, track (causal, as
+    /// live) or smooth. All are always in the CSV.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ClassifyJob::default().filter))]
     pub filter: String,
-    /// Per-frame CSV file (`None`: the CSV is returned in the report).
+    /// Write the per-frame CSV here (default: the report holds it; the command line prints
+    /// it on stdout).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "CSV"))]
     pub out: Option<PathBuf>,
-    /// Every zone's score per frame (CSV).
+    /// Write every zone's score per frame (CSV: frame, then one column per zone).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "CSV"))]
     pub scores: Option<PathBuf>,
-    /// Every frame's descriptor (NumPy `.npy`, float32, frames × descriptor length).
+    /// Write every frame's descriptor here as a NumPy array (`.npy`, float32, frames ×
+    /// descriptor length, row i = frame i; an ensemble's joined descriptor): for study in
+    /// Python (`numpy.load`). Run on the training pass for the database's descriptors.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "NPY"))]
     pub descriptors: Option<PathBuf>,
     /// Only the first N frames.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub limit: Option<usize>,
-    /// Zone HMM: probability of staying in a zone per frame.
+    /// HMM: probability of staying in a zone per frame (default: the model's).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub stay: Option<f64>,
-    /// Zone HMM: emission temperature, descriptor-distance units.
+    /// HMM: emission temperature in descriptor-distance units (default: the model's).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub temperature: Option<f32>,
-    /// Track filter: emission temperature, descriptor-distance units.
+    /// Track filter: emission temperature (descriptor-distance units).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub track_temperature: Option<f32>,
-    /// Track filter: scale of the move per frame, training frames.
+    /// Track filter: scale of the move per frame, in training frames.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub track_scale: Option<f64>,
-    /// Track filter: largest move per frame, training frames.
+    /// Track filter: largest move per frame, in training frames.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub track_step: Option<usize>,
     /// Track filter: largest speed, training frames per test frame (0: no speed state).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub track_speed: Option<usize>,
     /// Track filter: probability per frame of the speed changing by one.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub track_speed_change: Option<f64>,
-    /// Track filter: fixed-lag smoothing over the next L frames (0 = causal).
+    /// Track filter: report each frame's zone given the next L frames too (fixed-lag
+    /// smoothing; live, the zone L frames late). 0 = causal.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "L", default_value_t = ClassifyJob::default().track_lag)
+    )]
     pub track_lag: usize,
     /// Track filter: jump probability per frame.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub track_jump: Option<f64>,
-    /// Verify every frame against the SURF maps of its K best zones (0 = off).
+    /// Verify every frame against the model's SURF maps in its K best zones (0 = off; needs
+    /// the model's map first). Adds the verified (per frame) and live zones.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "K", default_value_t = ClassifyJob::default().verify)
+    )]
     pub verify: usize,
-    /// Compute device: `cpu`, `cuda`, `wgpu` (GPU builds only) or `auto`.
+    /// Compute device: cpu, cuda, wgpu (GPU builds only) or auto.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ClassifyJob::default().device))]
     pub device: String,
-    /// Replace `out`, `scores` and `descriptors` files that exist.
+    /// Replace `out`, `scores` and `descriptors` files that already exist.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
 

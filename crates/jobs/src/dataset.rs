@@ -15,32 +15,44 @@ use crate::progress::Progress;
 
 /// What a `DatasetJob` does with the dataset.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum DatasetAction {
-    /// Find every problem: counts, poses, images, labels, camera, format version, units.
+    /// Find every problem in a dataset: counts (images, poses, sections, depth), poses
+    /// (finite, unit quaternions, increasing timestamps), images (decodable, camera size),
+    /// labels, camera, format version and units.
     #[default]
     Check,
-    /// Summarize: source, camera, and per sequence frames, duration, path length, speed,
-    /// sections and depth.
+    /// Summarize a dataset: source, camera, and per sequence frames, duration, path length,
+    /// speed, anatomical sections and depth.
     Info,
-    /// Find the image mask (black border, circular field stop) from the frames and write it
-    /// as `mask.png`, named in `dataset.toml`.
+    /// Find the image mask (black border, circular field stop) from frames sampled over
+    /// every sequence (lit in some frame = valid; holes filled; a circle or rectangle fitted
+    /// when one fits), write it as mask.png and name it in dataset.toml ([camera] mask).
+    /// SURF, maps, localization and the VO baseline then keep inside it.
     Mask,
 }
 
-/// Checks or summarizes the dataset folder `dir` (the one holding `dataset.toml`).
+/// Checks or summarizes the dataset folder `dir` (the one holding `dataset.toml`), or finds
+/// its image mask.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct DatasetJob {
-    /// What to do.
+    /// What to do: check, info or mask.
+    #[cfg_attr(feature = "cli", arg(value_enum, value_name = "ACTION"))]
     pub action: DatasetAction,
-    /// Dataset folder.
+    /// Dataset folder (the one holding dataset.toml).
+    #[cfg_attr(feature = "cli", arg(value_name = "DIR"))]
     pub dir: PathBuf,
-    /// `Mask`: frames sampled evenly over every sequence.
+    /// Mask: frames sampled evenly over every sequence.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DatasetJob::default().frames))]
     pub frames: usize,
-    /// `Mask`: detection settings.
+    /// Mask: detection settings.
+    #[cfg_attr(feature = "cli", command(flatten))]
     pub detect: MaskDetectConfig,
-    /// `Mask`: replace an existing mask.
+    /// Mask: replace an existing mask.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
 

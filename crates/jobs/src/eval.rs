@@ -21,32 +21,86 @@ use crate::progress::Progress;
 /// and per-status tables. Writes `metrics.json`, `errors.csv`, `report.md` and the PNG plots
 /// into `out`; existing files are kept unless `force`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct EvalJob {
-    /// Ground-truth trajectory of the test sequence (TUM).
+    /// Ground-truth trajectory of the test sequence (TUM; e.g. the dataset's test/poses.txt).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub gt: PathBuf,
-    /// Estimated trajectory (TUM).
+    /// Estimated trajectory (TUM; a localization run's trajectory.txt).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub est: PathBuf,
-    /// The run's `frames.csv` (`None`: `frames.csv` next to `est`, when it exists).
+    /// The run's frames.csv (status, zone, ... per frame). Default: frames.csv next to `est`,
+    /// when it exists.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub frames: Option<PathBuf>,
-    /// True zone of each test frame (CSV `frame,zone`); enables the zone accuracy.
+    /// True zone of each test frame: CSV with header `frame,zone` (0-based frame and zone
+    /// indices). Enables zone_accuracy.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "CSV"))]
     pub gt_zones: Option<PathBuf>,
-    /// Output folder (empty: `eval/` next to `est`).
+    /// Output folder. Default (empty): `eval/` next to `est`.
+    #[cfg_attr(
+        feature = "cli",
+        arg(short, long, value_parser = crate::path_or_empty(), default_value_os_t = EvalJob::default().out, hide_default_value = true)
+    )]
     pub out: PathBuf,
     /// Replace existing output files.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
-    /// Alignment of the estimate onto the ground truth before the errors.
+    /// Align the estimate onto the ground truth before computing errors: `none`, `se3`
+    /// (rigid Umeyama, evo -a) or `sim3` (with scale, evo -a -s).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_parser = alignment_parser(), default_value = alignment_name(EvalJob::default().align))
+    )]
     pub align: AlignmentKind,
-    /// Largest timestamp difference for associating poses, seconds.
+    /// Largest timestamp difference for associating poses, seconds (evo --t_max_diff).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = EvalJob::default().t_max_diff))]
     pub t_max_diff: f64,
-    /// Offset added to the estimate's timestamps before associating, seconds.
+    /// Offset added to the estimate's timestamps before associating, seconds (evo --t_offset).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, default_value_t = EvalJob::default().t_offset, allow_hyphen_values = true)
+    )]
     pub t_offset: f64,
-    /// RPE pair distance, in associated poses.
+    /// RPE pair distance, in associated poses (evo_rpe --delta N --delta_unit f).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = EvalJob::default().rpe_delta))]
     pub rpe_delta: usize,
-    /// RPE over every pair (i, i + delta) instead of consecutive pairs.
+    /// RPE over every pair (i, i+delta) instead of consecutive pairs (evo_rpe --all_pairs).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub rpe_all_pairs: bool,
     /// Do not draw the PNG plots.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub no_plots: bool,
+}
+
+/// The names of the alignments, as in the job's TOML table.
+#[cfg(feature = "cli")]
+const ALIGNMENTS: [(&str, AlignmentKind); 3] = [
+    ("none", AlignmentKind::None),
+    ("se3", AlignmentKind::Se3),
+    ("sim3", AlignmentKind::Sim3),
+];
+
+/// The name of an alignment, as in the job's TOML table.
+#[cfg(feature = "cli")]
+fn alignment_name(kind: AlignmentKind) -> &'static str {
+    ALIGNMENTS
+        .iter()
+        .find(|(_, k)| *k == kind)
+        .map_or("none", |(name, _)| name)
+}
+
+/// Parses an alignment by its name.
+#[cfg(feature = "cli")]
+fn alignment_parser() -> impl clap::builder::TypedValueParser<Value = AlignmentKind> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(ALIGNMENTS.map(|(name, _)| name)).map(|s| {
+        ALIGNMENTS
+            .iter()
+            .find(|(name, _)| *name == s)
+            .map_or(AlignmentKind::None, |(_, k)| *k)
+    })
 }
 
 impl Default for EvalJob {

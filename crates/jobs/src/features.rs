@@ -19,34 +19,49 @@ use crate::progress::Progress;
 /// [`SurfConfig`]'s defaults (or the `config` file's), overridden by the fields that are set.
 /// Existing output files are kept unless `force`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct FeaturesJob {
-    /// Input image (colour is converted to grey).
+    /// Input image (any format the `image` crate reads; colour is converted to grey).
+    #[cfg_attr(feature = "cli", arg())]
     pub image: PathBuf,
-    /// Overlay picture to write (PNG).
+    /// Write the image with the keypoints drawn (PNG).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "PNG"))]
     pub overlay: Option<PathBuf>,
-    /// Keypoint file to write: `.csv` (x, y, scale, orientation_rad, response, laplacian,
-    /// octave; pixels, origin at the top-left pixel's centre) or `.json`.
+    /// Write the keypoints: `.csv` (x,y,scale,orientation_rad,response,laplacian,octave;
+    /// pixels, origin at the top-left pixel's centre) or `.json`.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "FILE"))]
     pub keypoints: Option<PathBuf>,
     /// Include the descriptors in the JSON keypoint file.
+    #[cfg_attr(feature = "cli", arg(long, requires = "keypoints"))]
     pub descriptors: bool,
-    /// Detector settings from a TOML file (fields of [`SurfConfig`]).
+    /// Detector settings from a TOML file (fields of SurfConfig); the options below override
+    /// it.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "TOML"))]
     pub config: Option<PathBuf>,
-    /// Hessian threshold (MATLAB `MetricThreshold`).
+    /// Hessian threshold (MATLAB MetricThreshold).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub threshold: Option<f32>,
-    /// Number of octaves (MATLAB `NumOctaves`).
+    /// Number of octaves (MATLAB NumOctaves).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub octaves: Option<usize>,
-    /// Filter sizes per octave (MATLAB `NumScaleLevels`).
+    /// Filter sizes per octave (MATLAB NumScaleLevels).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub scale_levels: Option<usize>,
-    /// Sampling step of the first octave, pixels.
+    /// Sampling step of the first octave in pixels.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub initial_step: Option<usize>,
     /// U-SURF: no orientation (0 = along +x).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub upright: bool,
     /// 128-d descriptors instead of 64-d.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub extended: bool,
     /// Use one thread.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub single_thread: bool,
-    /// Replace output files that exist.
+    /// Replace `overlay` and `keypoints` files that already exist.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
 

@@ -18,14 +18,29 @@ use crate::progress::Progress;
 
 /// A source format of [`ImportJob`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum ImportFormat {
-    /// A C3VD recording folder (`pose.txt`, `{n}_color.png`, optional depth TIFFs).
+    /// C3VD recording folder: pose.txt (16 values per line, column-major T_wc in mm),
+    /// {n}_color.png, optional {NNNN}_depth.tiff (mm = v / 65535 × 100). Camera: the common
+    /// pinhole + OpenCV-fisheye fit of C3VD's omnidirectional model (1350×1080) unless
+    /// `camera`.
     #[default]
     C3vd,
-    /// A SimCol3D colon folder or one `Frames_S*` folder.
+    /// SimCol3D colon folder (SavedPosition_S*.txt in cm, SavedRotationQuaternion_S*.txt,
+    /// Frames_S*/FrameBuffer_NNNN.png, optional Frames_S*/Depth_NNNN.png) or one Frames_S*
+    /// folder. Unity's left-handed y-up poses are converted with R = S·R·S, t = 10·S·t,
+    /// S = diag(1,-1,1). Depth (16-bit, z-depth) is imported when every frame has a
+    /// Depth_NNNN.png, with the organisers' scale mm = v / (255 × 256) × 200 (65280 = 20 cm).
+    /// Camera: 475×475, fx = fy = 227.60416, cx = cy = 237.5 unless `camera` (cam.txt is
+    /// ambiguous).
     Simcol3d,
-    /// An EndoSLAM recording (UnityCam or ex-vivo); needs `units` and `camera`.
+    /// EndoSLAM recording: UnityCam (Poses/*.csv `tX,tY,tZ,rX,rY,rZ,rW,time(s)`, paired with
+    /// Frames/ by row, Unity axes converted) or ex-vivo (an .xlsx pose workbook, or a CSV
+    /// export of its sheet, with columns `ImageFrame,Pose_Index,trans_x..z,quot_x..w`, joined
+    /// to the frames on ImageFrame; the sheet is `sheet`, else the first whose header has
+    /// ImageFrame). The length unit and the camera are not documented: give both (`units`,
+    /// `camera`).
     Endoslam,
 }
 
@@ -45,44 +60,77 @@ impl ImportFormat {
 /// sequence `seq`; `split` cuts it into sequences, or `test` adds a second recording of the
 /// same colon as `test` (then `src` is `train`). An existing `out` is kept unless `force`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct ImportJob {
     /// Source format.
+    #[cfg_attr(feature = "cli", arg(value_enum, value_name = "FORMAT"))]
     pub format: ImportFormat,
-    /// The recording folder.
+    /// The recording folder (C3VD: holding pose.txt; SimCol3D: the colon folder or a
+    /// Frames_S* folder; EndoSLAM: holding Frames/ and Poses/).
+    #[cfg_attr(feature = "cli", arg(value_name = "SRC"))]
     pub src: PathBuf,
     /// Output dataset folder.
+    #[cfg_attr(feature = "cli", arg(short, long))]
     pub out: PathBuf,
     /// Replace an existing dataset at `out`.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
-    /// Dataset name in `dataset.toml` (`None`: the output folder's name).
+    /// Dataset name in dataset.toml (default: the output folder's name).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub name: Option<String>,
-    /// Sequences by 0-based, end-exclusive frame ranges, e.g. `train:0..1500,test:1500..`.
+    /// Cut the recording into sequences by 0-based, end-exclusive frame ranges, e.g.
+    /// `train:0..1500,test:1500..` (ranges must not overlap).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "NAME:START..END,…", conflicts_with = "test")
+    )]
     pub split: Option<String>,
-    /// A second recording of the same colon, written as `test`.
+    /// A second recording of the same colon (same format and options), written as `test`;
+    /// SRC is then written as `train`.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "SRC2"))]
     pub test: Option<PathBuf>,
-    /// Sequence name for `src` when neither `split` nor `test` is given.
+    /// Sequence name for SRC when neither `split` nor `test` is given.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ImportJob::default().seq))]
     pub seq: String,
-    /// Frame rate for the time stamps where the source has none, frames per second.
+    /// Frame rate for the time stamps (frame i at i / fps s) where the source has none.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ImportJob::default().fps))]
     pub fps: f64,
-    /// Import the depth maps (C3VD, SimCol3D).
+    /// Import the depth maps (C3VD, SimCol3D; on by default, `no_depth` turns it off).
+    #[cfg_attr(feature = "cli", arg(long = "no-depth", action = clap::ArgAction::SetFalse))]
     pub depth: bool,
-    /// Camera `W,H,FX,FY,CX,CY` (C3VD also `…,K1,K2,K3,K4`, OpenCV fisheye); `None`: the
-    /// format's camera (required for EndoSLAM).
+    /// Camera: W,H,FX,FY,CX,CY (pinhole), or for C3VD also W,H,FX,FY,CX,CY,K1,K2,K3,K4
+    /// (OpenCV fisheye). Default: the format's camera; EndoSLAM needs it: it ships its
+    /// calibrations only as MATLAB cameraParameters objects
+    /// (Calibration/Camera/*/*_cameraParams_pinhole.mat), which only MATLAB decodes: read
+    /// ImageSize, FocalLength and PrincipalPoint there.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "W,H,FX,FY,CX,CY[,K1..K4]"))]
     pub camera: Option<String>,
-    /// C3VD: resample through the fisheye model into a pinhole with the same intrinsics.
+    /// C3VD: resample images (bilinear) and depth (nearest) through the fisheye model into a
+    /// pinhole with the same size, fx, fy, cx, cy; the dataset's camera is that pinhole.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub undistort: bool,
-    /// SimCol3D: trajectory suffix when the folder holds several (`S1`).
+    /// SimCol3D: trajectory suffix when the folder holds several (S1 for
+    /// SavedPosition_S1.txt).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub sequence: Option<String>,
-    /// EndoSLAM: length unit of the pose file, `mm`, `cm` or `m` (required).
+    /// EndoSLAM: length unit of the pose file (required).
+    #[cfg_attr(feature = "cli", arg(long, value_parser = ["mm", "cm", "m"]))]
     pub units: Option<String>,
-    /// EndoSLAM: pose file, `.csv` or `.xlsx`.
+    /// EndoSLAM: pose file, .csv or .xlsx (default: the only .csv or .xlsx in SRC/Poses,
+    /// else in SRC).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub poses: Option<PathBuf>,
-    /// EndoSLAM: worksheet of an `.xlsx` pose file.
+    /// EndoSLAM: worksheet of an .xlsx pose file (default: the first sheet whose header row
+    /// has an ImageFrame column, else the first sheet).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub sheet: Option<String>,
-    /// EndoSLAM: frames folder.
+    /// EndoSLAM: frames folder (default: SRC/Frames, else SRC).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub frames: Option<PathBuf>,
-    /// The command line recorded in `dataset.toml` (`None`: not recorded).
+    /// The command line recorded in dataset.toml (`None`: not recorded). Set by the caller,
+    /// not an option of the import.
+    #[cfg_attr(feature = "cli", arg(skip))]
     pub command: Option<String>,
 }
 

@@ -2,10 +2,14 @@
 //!
 //! Each stage is a plain, serialisable struct (`SimulateJob`, `TrainJob`, `MapJob`,
 //! `LocalizeJob`, `EvalJob`, …) whose `Default` is the method the documentation measures. Its
-//! `run` takes a [`Progress`] sink and returns a typed report; nothing here prints or parses
-//! command-line arguments. The command line turns its arguments into a job, runs it and prints
-//! the report; `endoloc run` reads the same jobs from a TOML file; the demo and the experiments
-//! compose them.
+//! `run` takes a [`Progress`] sink and returns a typed report; nothing here prints.
+//!
+//! Each option is defined once, on its job's field: its name, type, default (the job's
+//! `Default`) and help (the field's doc comment). With the `cli` feature every job also
+//! derives clap's `Args` from those fields, so the command line parses its arguments straight
+//! into the job (`#[command(flatten)]`), runs it and prints the report; the Python module
+//! reads its keyword arguments from the same derive; `endoloc run` reads the same jobs from a
+//! TOML file; the demo and the experiments compose them.
 //!
 //! ```no_run
 //! use endoloc_jobs::{Silent, MapJob};
@@ -54,3 +58,11 @@ pub use progress::{Bar, Progress, Silent};
 pub use simulate::{SimulateJob, SimulateReport};
 pub use train::{TrainJob, TrainMethod, TrainReport};
 pub use view::{ViewJob, ViewReport};
+
+/// The value parser of a path option whose default is empty (the job then picks the path, or
+/// asks for one): clap's own path parser refuses an empty value, its default included.
+#[cfg(feature = "cli")]
+pub(crate) fn path_or_empty() -> impl clap::builder::TypedValueParser<Value = std::path::PathBuf> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::OsStringValueParser::new().map(std::path::PathBuf::from)
+}

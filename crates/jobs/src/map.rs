@@ -19,25 +19,42 @@ use crate::progress::{Progress, bar};
 /// are dropped. Writes `map.toml` and `map.bin` into the model folder, one PLY per zone
 /// (`map_ply/zone_NNN.ply`) and a COLMAP text model (`map_colmap/`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct MapJob {
-    /// Model folder written by `TrainJob`.
+    /// Model folder written by the train job.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub model: PathBuf,
     /// Dataset the model was trained on.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub data: PathBuf,
     /// Training sequence inside the dataset.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = MapJob::default().seq))]
     pub seq: String,
-    /// Images per zone (the paper's `m ≥ 3`).
+    /// Images per zone (the paper's m ≥ 3).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = MapJob::default().images_per_zone))]
     pub images_per_zone: usize,
-    /// SURF threshold of the map (units of MATLAB's `MetricThreshold`).
+    /// SURF threshold of the map (units of MATLAB's MetricThreshold; the paper's 200 suits
+    /// larger, richer images). Test frames are described at twice it and retried at it.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = MapJob::default().threshold))]
     pub threshold: f32,
-    /// δr: map points reprojecting farther than this are dropped, pixels.
+    /// δr: drop map points reprojecting farther than this, pixels.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long = "delta-r", default_value_t = MapJob::default().delta_r_px)
+    )]
     pub delta_r_px: f64,
-    /// Every other training frame of a zone adds its observations of the zone's points
-    /// (matched by projection within this many pixels) before they are triangulated again;
-    /// 0 = only the `images_per_zone` images.
+    /// Every other training frame of a zone also looks for the zone's map points (projected
+    /// with its known pose, matched within this many pixels, e.g. 3), and each point is
+    /// triangulated again from all its observations: sharper points, a longer build (SURF on
+    /// every training frame). 0 (default) = only the `images_per_zone` images.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long = "observation-radius", default_value_t = MapJob::default().observation_radius_px)
+    )]
     pub observation_radius_px: f64,
     /// Replace an existing map.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
 

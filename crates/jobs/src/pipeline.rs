@@ -5,6 +5,7 @@ use std::fmt::Display;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use endoloc_net::ZoneSpec;
 use serde::{Deserialize, Serialize};
 
 use crate::bail;
@@ -23,7 +24,7 @@ use crate::{EvalJob, LocalizeJob, MapJob, SimulateJob, TrainJob, ViewJob};
 /// [simulate]
 /// preset = "paper"
 /// [train]
-/// zones = "50"
+/// zones = 50
 /// pretrained = "builtin-joint"
 /// epochs = 0
 /// [map]
@@ -204,25 +205,48 @@ impl RunJob {
 /// training pass, no training; with `train`, the paper's classifier trained from scratch), the
 /// per-zone maps, live localization of the test pass, its evaluation and a viewer page.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct DemoJob {
-    /// Output folder: `data/`, `model/`, `run/` (with `view.html`), `run/eval/`.
+    /// Output folder: data/, model/, run/ (with view.html), run/eval/.
+    #[cfg_attr(feature = "cli", arg(long, default_value_os_t = DemoJob::default().out))]
     pub out: PathBuf,
     /// Uniform zones along the training pass.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DemoJob::default().zones))]
     pub zones: usize,
-    /// Train the paper's classifier from scratch (a short schedule of `epochs`) instead of
-    /// indexing the pass with the shipped network.
+    /// Train the paper's Siamese classifier from scratch (a short schedule of `epochs`)
+    /// instead of indexing the pass with the shipped network.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub train: bool,
-    /// Training epochs with `train`.
+    /// Training epochs with `train` (the train job defaults to more).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DemoJob::default().epochs))]
     pub epochs: usize,
-    /// Image size of the simulated frames, pixels (`width`, `height`).
+    /// Image size of the simulated frames, WIDTHxHEIGHT (in a TOML table `[width, height]`).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "WxH", default_value = "640x480", value_parser = parse_size)
+    )]
     pub size: (u32, u32),
-    /// SURF threshold of the map.
+    /// SURF threshold of the map; test frames are described at twice it and retried at it.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DemoJob::default().threshold))]
     pub threshold: f32,
     /// Master seed of the simulation and the training.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DemoJob::default().seed))]
     pub seed: u64,
     /// Replace an existing output folder.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
+}
+
+/// An image size `WIDTHxHEIGHT`, at least 16×16 pixels.
+#[cfg(feature = "cli")]
+fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let parsed = s
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)));
+    parsed
+        .filter(|&(w, h): &(u32, u32)| w >= 16 && h >= 16)
+        .ok_or_else(|| format!("{s}: expected WIDTHxHEIGHT, e.g. 640x480"))
 }
 
 impl Default for DemoJob {
@@ -298,7 +322,7 @@ impl DemoJob {
         let mut t = Timings::default();
         let sim = SimulateJob {
             preset: "small".into(),
-            seed: self.seed,
+            seed: Some(self.seed),
             width: Some(self.size.0),
             height: Some(self.size.1),
             depth: Some(false),
@@ -311,7 +335,7 @@ impl DemoJob {
         let train = if self.train {
             TrainJob {
                 data: p("data"),
-                zones: self.zones.to_string(),
+                zones: ZoneSpec::Uniform(self.zones),
                 out: p("model"),
                 schedule: "fast".into(),
                 epochs: Some(self.epochs),
@@ -321,7 +345,7 @@ impl DemoJob {
         } else {
             TrainJob {
                 data: p("data"),
-                zones: self.zones.to_string(),
+                zones: ZoneSpec::Uniform(self.zones),
                 out: p("model"),
                 pretrained: Some("builtin-joint".into()),
                 epochs: Some(0),
@@ -496,7 +520,7 @@ impl SimulateJob {
     pub fn command_line(&self) -> String {
         CommandLine::new("simulate")
             .arg("preset", &self.preset)
-            .arg("seed", self.seed)
+            .opt("seed", self.seed)
             .opt("width", self.width)
             .opt("height", self.height)
             .flag("depth", self.depth == Some(true))

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use endoloc_data::Dataset;
 use endoloc_net::pretrain::{PretrainColon, PretrainReport as JointReport, pretrain};
 use endoloc_net::train::{TrainConfig, TrainTarget};
-use endoloc_net::{InputSize, UniformBy, ZoneConfig};
+use endoloc_net::{InputSize, UniformBy, ZoneConfig, ZoneSpec};
 use serde::{Deserialize, Serialize};
 
 use crate::bail;
@@ -23,41 +23,64 @@ use crate::train::{TrainBars, TrainJob, TrainReport, pair_rule_from};
 /// colon at once instead. Writes `out/colon-SEED/` (datasets), `out/model-SEED/` (models; with
 /// `joint` one `out/joint/`); a colon or model already in `out` is reused.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct PretrainJob {
     /// Output folder.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub out: PathBuf,
-    /// Number of simulated colons.
+    /// Number of simulated colons, trained on one after the other.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PretrainJob::default().colons))]
     pub colons: usize,
     /// Seed of the first colon; colon i has seed `seed + 101·i`.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PretrainJob::default().seed))]
     pub seed: u64,
-    /// Simulator preset of the colons (`paper` or `small`).
+    /// Simulator preset of the colons (`paper`, or `small` for a quick try).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PretrainJob::default().preset))]
     pub preset: String,
     /// Uniform zones of each colon's training pass.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PretrainJob::default().zones))]
     pub zones: usize,
-    /// Training epochs per colon (`None`: the `fast` schedule's); with `joint`, the whole
-    /// training's (`None`: 60 per colon).
+    /// Training epochs per colon (default: the `fast` schedule's); with `joint`, the whole
+    /// training's (default: 60 per colon).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub epochs: Option<usize>,
-    /// Training pairs: `zone` or `track` (`None`: the training default).
+    /// Training pairs of each colon: `zone` (default) or `track` (see the train job's
+    /// `pairs`; the test pass's frames then pair by their place along the training pass).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "RULE"))]
     pub pairs: Option<String>,
-    /// Track pairs: fraction of negatives near the positive.
+    /// Track pairs: fraction of negatives near the positive (see the train job's
+    /// `near_fraction`), e.g. 0.1.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "F"))]
     pub near_fraction: Option<f32>,
-    /// Start weights of the first colon (a `.safetensors` or `.pt` file, or `builtin`);
-    /// `None`: random weights.
+    /// Start weights of the first colon (a `.safetensors` or `.pt` file, or `builtin`):
+    /// continue from an earlier pretraining, e.g. with other pairs. Default: random weights.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "WEIGHTS"))]
     pub pretrained: Option<String>,
-    /// Train one network on every colon at once.
+    /// Train one network on every colon at once (batches drawn from all of them, each
+    /// negative from its partner's colon) instead of colon after colon. `epochs` is then
+    /// the whole training's (default 60 per colon).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub joint: bool,
-    /// Track pairs: largest positive and smallest negative frame gap, `P,N`.
+    /// Track pairs: largest positive and smallest negative frame gap, `P,N` (default 3,10;
+    /// halve them with `fps` 15).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "P,N"))]
     pub pair_frames: Option<String>,
-    /// Frames of each pass (`None`: the preset's).
+    /// Frames of each pass (default: the preset's).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "N"))]
     pub frames: Option<usize>,
-    /// Frame rate of the simulated passes, frames per second (`None`: the preset's).
+    /// Frame rate of the simulated passes (default: the preset's, 30); with half the frames,
+    /// 15 renders every second frame of the same passes.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "FPS"))]
     pub fps: Option<f64>,
-    /// Image size `WIDTHxHEIGHT`, pixels (`None`: the preset's).
+    /// Image width and height WIDTHxHEIGHT (default: the preset's).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "WxH"))]
     pub size: Option<String>,
-    /// Replace an existing `out/weights.safetensors`.
+    /// Replace an existing OUT/weights.safetensors.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
-    /// Compute device of the trainings: `cpu`, `cuda`, `wgpu` (GPU builds only) or `auto`.
+    /// Compute device: cpu, cuda, wgpu (GPU builds only) or auto (BURN_DEVICE, else cpu).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PretrainJob::default().device))]
     pub device: String,
 }
 
@@ -156,7 +179,7 @@ impl PretrainJob {
                 progress.note(&format!("\n== {title}: simulate"));
                 let sim = SimulateJob {
                     preset: self.preset.clone(),
-                    seed,
+                    seed: Some(seed),
                     out: data.clone(),
                     force: true,
                     train_frames: self.frames,
@@ -175,7 +198,7 @@ impl PretrainJob {
                     progress.note(&format!("\n== {title}: train"));
                     let train = TrainJob {
                         data: data.clone(),
-                        zones: self.zones.to_string(),
+                        zones: ZoneSpec::Uniform(self.zones),
                         also_seq: vec!["test".into()],
                         out: model.clone(),
                         force: true,
@@ -318,7 +341,7 @@ mod tests {
         assert_eq!(job.colon_dir(1), std::path::Path::new("p/colon-202"));
         assert_eq!(
             TrainJob::default().zones,
-            "50",
+            ZoneSpec::Uniform(PretrainJob::default().zones),
             "a colon's zones default to the training default"
         );
     }

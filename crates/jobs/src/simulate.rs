@@ -16,54 +16,102 @@ use crate::progress::Progress;
 /// procedural one, a GCA model folder (`gca`) or a surface mesh with its mid-line
 /// (`mesh` + `path`). `Option` fields override the preset (or `config` file) when set.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct SimulateJob {
-    /// Starting configuration: `small` or `paper`.
+    /// Starting configuration: `small` (300 + 300 frames, 320×240, depth maps), `paper`
+    /// (2610 + 2603 frames, 640×480, as in the paper) or `c3vd-like` (the paper's passes
+    /// through real-endoscope optics: 640×512 fisheye of 120°, circular field stop with its
+    /// mask, saturating highlights, exposure changes, motion blur).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, default_value_t = SimulateJob::default().preset,
+            value_parser = ["small", "paper", "c3vd-like"])
+    )]
     pub preset: String,
     /// Full configuration from a TOML file instead of the preset (as printed by
-    /// [`SimulateJob::sim_config`] + `to_toml`, or a dataset's `dataset.toml`).
+    /// [`SimulateJob::sim_config`] + `to_toml`, or a dataset's dataset.toml to regenerate
+    /// that dataset). The other options override it.
+    #[cfg_attr(feature = "cli", arg(long, conflicts_with = "preset"))]
     pub config: Option<PathBuf>,
-    /// Master seed: derives the colon shape, texture and both passes. With `config`, a seed
-    /// equal to the file's keeps the file's derived seeds.
-    pub seed: u64,
-    /// GCA model folder (surface `.vtk`, mid-line `.jsn`, landmarks `.json`) as the colon.
+    /// Master seed: derives the colon shape, texture and both passes. Same seed, same
+    /// dataset. Default: the preset's, or the `config` file's (a seed equal to the file's
+    /// keeps the file's derived seeds).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub seed: Option<u64>,
+    /// Use a GCA model folder (surface .vtk, mid-line .jsn, landmarks .json) as the colon,
+    /// e.g. data/gca-edin-00090.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "DIR", conflicts_with_all = ["mesh", "path"])
+    )]
     pub gca: Option<PathBuf>,
-    /// Colon surface mesh (VTK legacy ASCII, OBJ, PLY or STL, mm); needs `path`.
+    /// Colon surface mesh (VTK legacy ASCII, OBJ, PLY or STL, mm). Needs `path`.
+    #[cfg_attr(feature = "cli", arg(long, requires = "path"))]
     pub mesh: Option<PathBuf>,
-    /// Mid-line of the mesh colon, anus → caecum (GCA `.jsn`, or CSV of x,y,z in mm).
+    /// Mid-line path of the mesh colon, anus → caecum (GCA .jsn, or CSV of x,y,z in mm).
+    #[cfg_attr(feature = "cli", arg(long, requires = "mesh"))]
     pub path: Option<PathBuf>,
     /// Landmarks labelling the mid-line with anatomical sections (GCA model JSON).
+    #[cfg_attr(feature = "cli", arg(long, requires = "mesh"))]
     pub landmarks: Option<PathBuf>,
-    /// Radial growth factor of a mesh colon's lumen (1.0 keeps the scanned wall).
+    /// Grow a mesh colon's lumen radially about its mid-line (CT scans are not insufflated);
+    /// 1.0, the default, keeps the scanned wall. Where loops are packed, grown walls flatten
+    /// against each other.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub inflation: Option<f64>,
     /// Frames in the training pass.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub train_frames: Option<usize>,
     /// Frames in the test pass.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub test_frames: Option<usize>,
-    /// Frame rate of both passes, frames per second.
+    /// Frame rate of both passes, frames per second (default: the preset's, 30). A pass
+    /// lasts frames / fps seconds and covers the whole colon whatever the frame count: half
+    /// the frames at half the rate is the same pass sampled every second frame.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub fps: Option<f64>,
     /// Image width, pixels.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub width: Option<u32>,
     /// Image height, pixels.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub height: Option<u32>,
-    /// Horizontal field of view, degrees.
+    /// Horizontal field of view of the pinhole camera, degrees.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub hfov: Option<f64>,
-    /// Write 16-bit depth maps (mm × 100) next to the images.
+    /// Write 16-bit depth maps (mm × 100) next to the images (default: the preset's;
+    /// `no_depth` turns them off).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long = "no-depth", num_args = 0, default_missing_value = "false")
+    )]
     pub depth: Option<bool>,
-    /// Sensor noise standard deviation, 8-bit grey levels.
+    /// Sensor noise standard deviation, 8-bit grey levels (0 = none).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub noise: Option<f64>,
     /// Sub-frames averaged per frame for motion blur (1 = none).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub motion_blur: Option<usize>,
-    /// Radius of a circular field stop, fraction of the half image diagonal (0 = none); the
-    /// dataset then gets the renderer's mask.
+    /// Circular field stop: its radius as a fraction of the half image diagonal (0 = none;
+    /// 0.9 blacks out the corners, as on real endoscopes). The dataset gets the renderer's
+    /// mask (mask.png).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub field_stop: Option<f64>,
-    /// Black columns on the left and right of every frame, pixels.
+    /// Black columns on the left and the right of every frame, pixels (0 = none).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub black_border: Option<u32>,
     /// Smallest distance kept between the lens and the colon wall, mm.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub clearance: Option<f64>,
-    /// Output dataset folder.
+    /// Output dataset folder (created; must not exist unless `force`).
+    #[cfg_attr(
+        feature = "cli",
+        arg(short, long, value_parser = crate::path_or_empty(), default_value_os_t = SimulateJob::default().out, hide_default_value = true)
+    )]
     pub out: PathBuf,
     /// Replace an existing output folder.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
 
@@ -72,7 +120,7 @@ impl Default for SimulateJob {
         SimulateJob {
             preset: Preset::Small.name().into(),
             config: None,
-            seed: SimConfig::preset(Preset::Small).seed,
+            seed: None,
             gca: None,
             mesh: None,
             path: None,
@@ -122,8 +170,10 @@ impl SimulateJob {
             Some(file) => SimConfig::from_toml_file(file)?,
             None => SimConfig::preset(self.preset.parse::<Preset>()?),
         };
-        if self.config.is_none() || cfg.seed != self.seed {
-            cfg = cfg.with_seed(self.seed);
+        if let Some(seed) = self.seed
+            && (self.config.is_none() || cfg.seed != seed)
+        {
+            cfg = cfg.with_seed(seed);
         }
         if let Some(dir) = &self.gca {
             cfg = cfg.with_mesh_colon(

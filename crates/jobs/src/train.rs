@@ -8,7 +8,7 @@ use std::time::Instant;
 use endoloc_data::Dataset;
 use endoloc_net::backbone::{BackboneConfig, Pooling};
 use endoloc_net::train::{Phase, Schedule, TrainConfig, TrainProgress, TrainTarget, train};
-use endoloc_net::{AugmentConfig, PairRule, UniformBy, ZoneConfig, ZoneTable};
+use endoloc_net::{AugmentConfig, PairRule, UniformBy, ZoneConfig, ZoneSpec, ZoneTable};
 use serde::{Deserialize, Serialize};
 
 use crate::bail;
@@ -18,6 +18,7 @@ use crate::progress::Progress;
 
 /// What a `TrainJob` trains.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum TrainMethod {
     /// The Siamese zone classifier.
@@ -35,70 +36,134 @@ pub enum TrainMethod {
 /// `history.csv` and `loss.png`. `Option` fields override the schedule, backbone or `config`
 /// file when set; `None` keeps theirs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct TrainJob {
-    /// The Siamese classifier, or a regression baseline on the same backbone.
+    /// What to train: the Siamese zone classifier (the paper's method) or a learning
+    /// baseline on the same backbone (`posenet`, `offsetnet`; for the localize job's `method`
+    /// and the compare experiment). The baselines use `data`, `seq`, `out`, `epochs`, `seed`
+    /// and `force`.
+    #[cfg_attr(feature = "cli", arg(long, value_enum, default_value_t = TrainMethod::default()))]
     pub method: TrainMethod,
-    /// Dataset folder (with `dataset.toml`).
+    /// Dataset folder (with dataset.toml).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub data: PathBuf,
     /// Training sequence inside the dataset.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().seq))]
     pub seq: String,
-    /// Further passes through the same colon (sequences of this dataset) joined to the pairs.
+    /// A further pass through the same colon (a sequence of this dataset; repeatable). Its
+    /// frames join the zone of their nearest training pose, so that positive pairs also join
+    /// views of one place from different passes; zones, database and maps stay those of
+    /// `seq`.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "SEQ"))]
     pub also_seq: Vec<String>,
-    /// Zones: a number (uniform) or `expert` / `expert:N` (anatomical).
-    pub zones: String,
-    /// Uniform zones of equal `arc-length` or equal `frames`.
+    /// Zones: a number (uniform) or `expert` / `expert:N` (anatomical, N zones, default 50).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().zones))]
+    pub zones: ZoneSpec,
+    /// Uniform zones of equal `arc-length` (default) or equal `frames`.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().uniform_by))]
     pub uniform_by: String,
     /// Fewest training frames a uniform zone holds: a zone over a fast stretch of the pass is
     /// widened into its neighbours until it has this many (its map needs several views).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "N", default_value_t = TrainJob::default().min_zone_frames)
+    )]
     pub min_zone_frames: usize,
     /// Model folder to write.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "MODEL"))]
     pub out: PathBuf,
     /// Replace an existing model folder (or discard an interrupted run).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
-    /// Continue an interrupted run from its checkpoint (`MODEL.partial/checkpoint`).
+    /// Continue an interrupted run from its checkpoint (MODEL.partial/checkpoint).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub resume: bool,
-    /// Backbone: `compact` or `googlenet`.
+    /// Backbone: `compact` (CPU default, 256x192 input, stride-4 first layer) or `googlenet`
+    /// (the paper's, 224x224x1; for a GPU).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().backbone))]
     pub backbone: String,
-    /// Network input size `WxH` (`None`: the backbone's).
+    /// Network input size WIDTHxHEIGHT (default: the backbone's, 256x192 for compact).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "WxH"))]
     pub input: Option<String>,
-    /// Stride of the compact backbone's first convolution.
+    /// Stride of the compact backbone's first convolution (default 4; 2 with `input`
+    /// 128x96 is the former, coarser default).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "N"))]
     pub stem_stride: Option<usize>,
-    /// Global pooling of the compact backbone: `average` or `gem`.
+    /// Global pooling of the compact backbone: `average` (default) or `gem` (generalised mean,
+    /// p = 3).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "KIND"))]
     pub pooling: Option<String>,
-    /// Tilt augmentation, degrees about the camera's x and y axes.
+    /// Augment with the view of the scope turned by up to ±DEG about its x and y axes (an
+    /// exact homography; default from the augmentation settings).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DEG"))]
     pub tilt_deg: Option<f32>,
-    /// Training pairs: `zone` or `track`.
+    /// Training pairs: `zone` (the paper's: positives share a zone, negatives do not) or
+    /// `track` (by distance along the training pass: positives within 3 frames, negatives 10
+    /// or more apart, half of them within 20; see `pair_frames`). Track pairs never give
+    /// opposite labels to neighbouring frames across a zone border.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "RULE"))]
     pub pairs: Option<String>,
-    /// Track pairs: largest positive and smallest negative frame gap, `P,N`.
+    /// Track pairs: largest positive and smallest negative frame gap, `P,N` (default 3,10).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "P,N"))]
     pub pair_frames: Option<String>,
-    /// Track pairs: fraction of negatives within 2·N frames.
+    /// Track pairs: fraction of negatives within 2·N frames (default 0.5).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "F"))]
     pub near_fraction: Option<f32>,
-    /// Track pairs: fraction of each batch drawn as zone pairs instead.
+    /// Track pairs: fraction of each batch drawn as zone pairs instead (default 0).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "F"))]
     pub zone_fraction: Option<f32>,
-    /// Power of the partial PCA whitening of the descriptors (0: none).
+    /// Power of the partial PCA whitening learnt from the database of the training pass and
+    /// applied to every descriptor (default 0.25; 0: the network's descriptors as they are).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "P"))]
     pub whitening: Option<f32>,
-    /// Database smoothing along the training pass, ± mm of camera path (0: none).
+    /// Smooth the database along the training pass: each training frame's descriptor becomes
+    /// the mean of those within ±MM of camera path (default 2.2; 0: none). Test frames are
+    /// still looked up one by one.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "MM"))]
     pub database_smoothing: Option<f64>,
-    /// Schedule preset: `fast` or `paper`.
+    /// Schedule preset: `fast` (150 epochs of 128+128 pairs, batch 64 pairs sharing images,
+    /// Adam 1e-3 → 1e-4) or `paper` (500 epochs of 128+128 pairs, batch 128, Adam 1e-3).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().schedule))]
     pub schedule: String,
-    /// Training settings from a TOML file (fields of `TrainConfig`), overridden by the above.
+    /// Training settings from a TOML file (fields of TrainConfig); the options below override
+    /// it.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "TOML"))]
     pub config: Option<PathBuf>,
-    /// Epochs (0 with `pretrained`: only index the pass with the start weights).
+    /// Number of epochs (overrides the schedule). 0, with `pretrained`: no optimisation,
+    /// only the database of the training pass from the start weights as they are (seconds).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub epochs: Option<usize>,
-    /// Adam learning rate at the start.
+    /// Adam learning rate at the start (overrides the schedule).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub lr: Option<f64>,
-    /// Pairs per step.
+    /// Pairs per step (overrides the schedule).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub batch_pairs: Option<usize>,
     /// Turn augmentation off.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub no_augment: bool,
     /// Seed of every random step.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().seed))]
     pub seed: u64,
-    /// Compute device: `cpu`, `cuda`, `wgpu` (GPU builds only) or `auto`.
+    /// Compute device: cpu, cuda, wgpu (GPU builds only) or auto (BURN_DEVICE, else cpu).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().device))]
     pub device: String,
-    /// Monitor validation accuracy on this sequence folder.
+    /// Monitor validation accuracy on this sequence folder (e.g. a second pass through the
+    /// same colon; truth zones from its poses) instead of held-out training frames.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub val_seq: Option<PathBuf>,
-    /// Start weights: a file, or `builtin`, `builtin-track`, `builtin-joint`.
+    /// Start from these weights: a safetensors file or a PyTorch state dict (.pt/.pth);
+    /// GoogLeNet takes torchvision's names (use branch3_kernel = 3 in a `config` file for
+    /// torchvision's weights). Shipped with endoloc, for the default compact backbone
+    /// (pretrained on simulated colons, never yours): `builtin`, zone pairs on four colons;
+    /// `builtin-track`, those continued with track pairs on eight colons, the start for track
+    /// `pairs` with `near_fraction` 0.1; `builtin-joint`, those continued on 32 colons at
+    /// once, best used as they are with 0 `epochs`.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "FILE|builtin|builtin-track|builtin-joint")
+    )]
     pub pretrained: Option<PathBuf>,
 }
 
@@ -110,7 +175,7 @@ impl Default for TrainJob {
             data: PathBuf::new(),
             seq: "train".into(),
             also_seq: Vec::new(),
-            zones: "50".into(),
+            zones: ZoneSpec::default(),
             uniform_by: "arc-length".into(),
             min_zone_frames: endoloc_net::DEFAULT_MIN_ZONE_FRAMES,
             out: PathBuf::new(),
@@ -177,31 +242,13 @@ pub struct SiameseReport {
     pub seconds: f64,
 }
 
-/// Parses a zone spec: a number (uniform zones, `by` = `arc-length` or `frames`, at least
-/// `min_frames` frames each), `expert` or `expert:N` (anatomical, N zones, default 50).
+/// The zoning of `spec`: uniform zones cut `by` `arc-length` or `frames`, at least
+/// `min_frames` frames each, or anatomical zones.
 ///
 /// # Errors
-/// A spec or `by` that is none of these.
-pub fn zone_config(spec: &str, by: &str, min_frames: usize) -> Result<ZoneConfig> {
-    let s = spec.trim().to_ascii_lowercase();
-    if let Some(rest) = s.strip_prefix("expert") {
-        let count = match rest.strip_prefix(':') {
-            Some(n) => n
-                .parse()
-                .with_context(|| format!("--zones {spec}: expected expert:N with N a number"))?,
-            None if rest.is_empty() => 50,
-            None => bail!("--zones {spec}: expected a number, `expert` or `expert:N`"),
-        };
-        return Ok(ZoneConfig::Expert { count });
-    }
-    let count: usize = s
-        .parse()
-        .with_context(|| format!("--zones {spec}: expected a number, `expert` or `expert:N`"))?;
-    Ok(ZoneConfig::Uniform {
-        count,
-        by: by.parse::<UniformBy>()?,
-        min_frames,
-    })
+/// A `by` that is neither.
+pub fn zone_config(spec: ZoneSpec, by: &str, min_frames: usize) -> Result<ZoneConfig> {
+    Ok(spec.config(by.parse::<UniformBy>()?, min_frames))
 }
 
 /// `--pairs RULE`, `--pair-frames P,N`, `--near-fraction F` and `--zone-fraction F` applied
@@ -388,7 +435,7 @@ impl TrainJob {
             });
         }
         let cfg = self.train_config()?;
-        let zcfg = zone_config(&args.zones, &args.uniform_by, args.min_zone_frames)?;
+        let zcfg = zone_config(args.zones, &args.uniform_by, args.min_zone_frames)?;
         let dataset = Dataset::open(&args.data)?;
         let seq = dataset.sequence(&args.seq)?;
         let zones = ZoneTable::from_sequence(&seq, &zcfg)?;
@@ -669,12 +716,15 @@ mod tests {
     #[test]
     fn zone_specs_parse_and_bad_ones_are_named() {
         assert_eq!(
-            zone_config("expert:30", "arc-length", 3).unwrap(),
+            zone_config("expert:30".parse().unwrap(), "arc-length", 3).unwrap(),
             ZoneConfig::Expert { count: 30 }
         );
-        let e = zone_config("many", "arc-length", 3)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("--zones many"), "{e}");
+        let e = "many".parse::<ZoneSpec>().unwrap_err().to_string();
+        assert!(e.contains("zones \"many\""), "{e}");
+        let job: TrainJob = toml::from_str("zones = \"expert:9\"").unwrap();
+        assert_eq!(job.zones, ZoneSpec::Expert(Some(9)));
+        let job: TrainJob = toml::from_str("zones = 70").unwrap();
+        assert_eq!(job.zones, ZoneSpec::Uniform(70));
+        assert!(toml::from_str::<TrainJob>("zones = \"many\"").is_err());
     }
 }

@@ -39,25 +39,36 @@ pub const VIEW_FILE: &str = "view.html";
 /// `frames.csv`, `localize.toml`); the sequence and model it names are read for the images,
 /// the ground truth, the camera, the training pass and the map.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct ViewJob {
-    /// Run folder written by `endoloc localize`.
+    /// Run folder written by the localize job (its `out`).
+    #[cfg_attr(feature = "cli", arg(value_name = "RUN_DIR"))]
     pub run: PathBuf,
-    /// Output file (`None`: `view.html` in the run folder).
+    /// Output page. Default: RUN_DIR/view.html.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "FILE.html"))]
     pub out: Option<PathBuf>,
     /// Replace an existing page.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
-    /// Width of the frame thumbnails, pixels (height follows the camera's aspect ratio).
+    /// Width of the frame thumbnails embedded in the page, pixels (height follows the
+    /// camera's aspect ratio).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ViewJob::default().thumb_width))]
     pub thumb_width: u32,
-    /// At most this many map points in the page, in all zones together (subsampled evenly).
+    /// At most this many map points in the page, all zones together (subsampled evenly).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ViewJob::default().max_points))]
     pub max_points: usize,
-    /// Leave out the ground truth even when the sequence has `poses.txt`.
+    /// Show no errors even when the sequence has poses.txt.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub no_gt: bool,
-    /// Test sequence folder (`None`: the one in the run's `localize.toml`).
+    /// Test sequence folder. Default: the one in RUN_DIR/localize.toml.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub seq: Option<PathBuf>,
-    /// Model folder (`None`: the one in the run's `localize.toml`).
+    /// Model folder (training pass, zones, map). Default: the one in RUN_DIR/localize.toml.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub model: Option<PathBuf>,
-    /// JPEG quality of the thumbnails, 1–100.
+    /// JPEG quality of the thumbnails (1–100).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ViewJob::default().jpeg_quality))]
     pub jpeg_quality: u8,
 }
 

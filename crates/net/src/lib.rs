@@ -61,4 +61,4 @@ pub use train::{
     EpochRecord, ImageCache, Phase, Schedule, TrainConfig, TrainProgress, TrainReport, TrainTarget,
     ValidationConfig, fit, train,
 };
-pub use zones::{DEFAULT_MIN_ZONE_FRAMES, UniformBy, Zone, ZoneConfig, ZoneTable};
+pub use zones::{DEFAULT_MIN_ZONE_FRAMES, UniformBy, Zone, ZoneConfig, ZoneSpec, ZoneTable};

@@ -124,6 +124,119 @@ impl ZoneConfig {
     }
 }
 
+/// Zones as a job's options give them: a count of uniform zones (`50`) or anatomical zones
+/// (`expert`, or `expert:N` for N zones in all). Written as a number (uniform) or a string
+/// (expert) in TOML and JSON, read from either; parsed from and displayed as `50`, `expert`,
+/// `expert:9`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ZoneSpec {
+    /// This many uniform zones ([`ZoneConfig::Uniform`]).
+    Uniform(usize),
+    /// One zone per anatomical section, long sections split so that there are this many in
+    /// all (`None`: [`ZoneSpec::DEFAULT_EXPERT_ZONES`]; [`ZoneConfig::Expert`]).
+    Expert(Option<usize>),
+}
+
+impl ZoneSpec {
+    /// Anatomical zones in all when `expert` gives no count (the paper's 50).
+    pub const DEFAULT_EXPERT_ZONES: usize = 50;
+
+    /// The number of zones asked for.
+    pub fn count(self) -> usize {
+        match self {
+            ZoneSpec::Uniform(n) => n,
+            ZoneSpec::Expert(n) => n.unwrap_or(Self::DEFAULT_EXPERT_ZONES),
+        }
+    }
+
+    /// The zoning: uniform zones cut `by` arc length or frames, at least `min_frames` frames
+    /// each (both unused for expert zones).
+    pub fn config(self, by: UniformBy, min_frames: usize) -> ZoneConfig {
+        match self {
+            ZoneSpec::Uniform(count) => ZoneConfig::Uniform {
+                count,
+                by,
+                min_frames,
+            },
+            ZoneSpec::Expert(_) => ZoneConfig::Expert {
+                count: self.count(),
+            },
+        }
+    }
+}
+
+impl Default for ZoneSpec {
+    /// 50 uniform zones.
+    fn default() -> Self {
+        ZoneSpec::Uniform(50)
+    }
+}
+
+impl std::str::FromStr for ZoneSpec {
+    type Err = NetError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let bad = || {
+            NetError::Config(format!(
+                "zones {s:?}: expected a number, `expert` or `expert:N` with N a number"
+            ))
+        };
+        let t = s.trim().to_ascii_lowercase();
+        match t.strip_prefix("expert") {
+            Some("") => Ok(ZoneSpec::Expert(None)),
+            Some(rest) => {
+                let n = rest.strip_prefix(':').ok_or_else(bad)?;
+                Ok(ZoneSpec::Expert(Some(n.trim().parse().map_err(|_| bad())?)))
+            }
+            None => t.parse().map(ZoneSpec::Uniform).map_err(|_| bad()),
+        }
+    }
+}
+
+impl std::fmt::Display for ZoneSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ZoneSpec::Uniform(n) => write!(f, "{n}"),
+            ZoneSpec::Expert(None) => f.write_str("expert"),
+            ZoneSpec::Expert(Some(n)) => write!(f, "expert:{n}"),
+        }
+    }
+}
+
+impl Serialize for ZoneSpec {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            ZoneSpec::Uniform(n) => s.serialize_u64(*n as u64),
+            ZoneSpec::Expert(_) => s.collect_str(self),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for ZoneSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl serde::de::Visitor<'_> for Visitor {
+            type Value = ZoneSpec;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a zone count, `expert` or `expert:N`")
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<ZoneSpec, E> {
+                usize::try_from(v)
+                    .map(ZoneSpec::Uniform)
+                    .map_err(|_| E::custom(format!("zone count {v} is too large")))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<ZoneSpec, E> {
+                u64::try_from(v)
+                    .map_err(|_| E::custom(format!("zone count {v} is negative")))
+                    .and_then(|v| self.visit_u64(v))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<ZoneSpec, E> {
+                v.parse().map_err(E::custom)
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
 /// One zone: a contiguous range of training frames.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Zone {
@@ -742,6 +855,71 @@ fn majority(labels: &[Section]) -> Option<Section> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn zone_specs_round_trip_through_text_toml_and_json() {
+        #[derive(Debug, PartialEq, Serialize, Deserialize)]
+        struct T {
+            zones: ZoneSpec,
+        }
+        for (text, spec) in [
+            ("50", ZoneSpec::Uniform(50)),
+            ("expert", ZoneSpec::Expert(None)),
+            ("expert:9", ZoneSpec::Expert(Some(9))),
+        ] {
+            assert_eq!(text.parse::<ZoneSpec>().unwrap(), spec);
+            assert_eq!(spec.to_string(), text);
+            let t = T { zones: spec };
+            let toml_text = toml::to_string(&t).unwrap();
+            assert_eq!(toml::from_str::<T>(&toml_text).unwrap(), t);
+            let json = serde_json::to_string(&t).unwrap();
+            assert_eq!(serde_json::from_str::<T>(&json).unwrap(), t);
+        }
+        // A number for uniform zones, a string for expert ones; either is read.
+        assert_eq!(
+            toml::to_string(&T {
+                zones: ZoneSpec::Uniform(70)
+            })
+            .unwrap()
+            .trim(),
+            "zones = 70"
+        );
+        assert_eq!(
+            toml::to_string(&T {
+                zones: ZoneSpec::Expert(Some(9))
+            })
+            .unwrap()
+            .trim(),
+            "zones = \"expert:9\""
+        );
+        assert_eq!(
+            toml::from_str::<T>("zones = \"30\"").unwrap().zones,
+            ZoneSpec::Uniform(30)
+        );
+        assert_eq!(
+            serde_json::from_str::<T>(r#"{"zones": "Expert"}"#)
+                .unwrap()
+                .zones,
+            ZoneSpec::Expert(None)
+        );
+        for bad in ["", "many", "expert:", "expert9", "expert:x", "-3"] {
+            assert!(bad.parse::<ZoneSpec>().is_err(), "{bad:?}");
+        }
+        assert!(toml::from_str::<T>("zones = -3").is_err());
+        assert_eq!(ZoneSpec::Expert(None).count(), 50);
+        assert_eq!(
+            ZoneSpec::Expert(Some(9)).config(UniformBy::Frames, 3),
+            ZoneConfig::Expert { count: 9 }
+        );
+        assert_eq!(
+            ZoneSpec::Uniform(20).config(UniformBy::Frames, 4),
+            ZoneConfig::Uniform {
+                count: 20,
+                by: UniformBy::Frames,
+                min_frames: 4
+            }
+        );
+    }
 
     fn straight(n: usize, step: impl Fn(usize) -> f64) -> Vec<Pose> {
         let mut x = 0.0;

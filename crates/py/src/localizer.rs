@@ -299,29 +299,28 @@ pub struct PyLocalizer {
     job: LocalizeJob,
 }
 
-/// `endoloc localize` options that set up the localizer (the others name files).
-const LOCALIZER_OPTIONS: &[&str] = &[
-    "also_model",
-    "track_frames",
-    "recover_frames",
-    "hold_frames",
-    "classify_every_frame",
-    "trusted_inliers",
-    "gate_mm",
-    "neighbours",
-    "threshold",
-    "retry_threshold",
-    "max_keypoints",
-    "candidate_zones",
-    "max_sigma_mm",
-    "max_std_mm",
-    "weak_max_std_mm",
-    "confirm",
-    "no_confirm",
-    "max_rms_px",
-    "max_jump_mm",
-    "polish_px",
+/// The localize job's options that do not apply to a localizer fed frame by frame (what to
+/// run, where the frames come from and where results go); `live` and the model are the
+/// localizer's own arguments.
+const NOT_LOCALIZER_OPTIONS: &[&str] = &[
+    "method",
+    "model",
+    "regressor",
+    "reference_seq",
+    "seq",
+    "out",
+    "live",
+    "strict",
+    "force",
 ];
+
+/// The keyword arguments of `Localizer`: the localize job's, less [`NOT_LOCALIZER_OPTIONS`].
+fn localizer_keywords() -> PyResult<Vec<crate::jobs::Keyword>> {
+    Ok(crate::jobs::keywords_of("localize")?
+        .into_iter()
+        .filter(|k| !NOT_LOCALIZER_OPTIONS.contains(&k.field.as_str()))
+        .collect())
+}
 
 #[pymethods]
 impl PyLocalizer {
@@ -343,17 +342,11 @@ impl PyLocalizer {
             Ok(m) => m.get().classifier.dir().to_path_buf(),
             Err(_) => path_from_py(model)?,
         };
-        let mut t = match options {
+        let t = match options {
             Some(d) => table_from_dict(d)?,
             None => toml::Table::new(),
         };
-        if let Some(bad) = t.keys().find(|k| !LOCALIZER_OPTIONS.contains(&k.as_str())) {
-            return Err(PyTypeError::new_err(format!(
-                "Localizer() got an unexpected keyword argument {bad:?}; its options are: live, mask, {}",
-                LOCALIZER_OPTIONS.join(", ")
-            )));
-        }
-        crate::jobs::apply_negated("localize", &mut t)?;
+        let mut t = crate::jobs::table_from_keywords("Localizer", &localizer_keywords()?, t)?;
         t.insert(
             "model".into(),
             toml::Value::String(dir.to_string_lossy().into_owned()),

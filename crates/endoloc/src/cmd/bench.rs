@@ -1,7 +1,5 @@
 //! `endoloc bench`: timing endoloc's stages on a dataset.
 
-use std::path::PathBuf;
-
 use anyhow::Result;
 use endoloc_jobs::{LiveBenchJob, Progress};
 
@@ -35,18 +33,8 @@ enum What {
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 struct LiveArgs {
-    /// Model folder with its map (`endoloc train`, `endoloc map`).
-    #[arg(long)]
-    model: PathBuf,
-    /// Sequence folder to replay, e.g. data/paper/test.
-    #[arg(long)]
-    seq: PathBuf,
-    /// Replay only the first N frames.
-    #[arg(long, value_name = "N")]
-    frames: Option<usize>,
-    /// Time the current localizer alone (no plain-path run).
-    #[arg(long)]
-    no_compare: bool,
+    #[command(flatten)]
+    job: LiveBenchJob,
     #[command(flatten)]
     confirm: super::localize::ConfirmArgs,
 }
@@ -54,13 +42,8 @@ struct LiveArgs {
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
     match args.what {
         What::Live(a) => {
-            let job = LiveBenchJob {
-                model: a.model,
-                seq: a.seq,
-                frames: a.frames,
-                compare: !a.no_compare,
-                confirm: a.confirm.on(),
-            };
+            let mut job = a.job;
+            a.confirm.apply(&mut job.confirm);
             crate::ui::print(&job.run(ui)?)?;
         }
     }

@@ -1,7 +1,5 @@
 //! `endoloc view`: one self-contained HTML page to explore a localization run.
 
-use std::path::PathBuf;
-
 use anyhow::Result;
 use endoloc_jobs::{Progress, ViewJob};
 
@@ -26,53 +24,12 @@ use endoloc_jobs::{Progress, ViewJob};
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
-    /// Run folder written by `endoloc localize --out`.
-    #[arg(value_name = "RUN_DIR")]
-    run: PathBuf,
-    /// Output page. Default: RUN_DIR/view.html.
-    #[arg(long, value_name = "FILE.html")]
-    out: Option<PathBuf>,
-    /// Replace an existing page.
-    #[arg(long)]
-    force: bool,
-    /// Width of the frame thumbnails embedded in the page, pixels.
-    #[arg(long, default_value_t = ViewJob::default().thumb_width)]
-    thumb_width: u32,
-    /// JPEG quality of the thumbnails (1–100).
-    #[arg(long, default_value_t = ViewJob::default().jpeg_quality)]
-    jpeg_quality: u8,
-    /// At most this many map points in the page, all zones together (subsampled evenly).
-    #[arg(long, default_value_t = ViewJob::default().max_points)]
-    max_points: usize,
-    /// Show no errors even when the sequence has poses.txt.
-    #[arg(long)]
-    no_gt: bool,
-    /// Test sequence folder. Default: the one in RUN_DIR/localize.toml.
-    #[arg(long, value_name = "DIR")]
-    seq: Option<PathBuf>,
-    /// Model folder (training pass, zones, map). Default: the one in RUN_DIR/localize.toml.
-    #[arg(long, value_name = "DIR")]
-    model: Option<PathBuf>,
-}
-
-impl From<Args> for ViewJob {
-    fn from(a: Args) -> Self {
-        ViewJob {
-            run: a.run,
-            out: a.out,
-            force: a.force,
-            thumb_width: a.thumb_width,
-            max_points: a.max_points,
-            no_gt: a.no_gt,
-            seq: a.seq,
-            model: a.model,
-            jpeg_quality: a.jpeg_quality,
-        }
-    }
+    #[command(flatten)]
+    job: ViewJob,
 }
 
 /// Runs `endoloc view`.
 pub fn run(args: Args, ui: &dyn Progress) -> Result<()> {
-    crate::ui::print(&ViewJob::from(args).run(ui)?)?;
+    crate::ui::print(&args.job.run(ui)?)?;
     Ok(())
 }

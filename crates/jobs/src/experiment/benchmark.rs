@@ -9,6 +9,7 @@
 
 use std::path::{Path, PathBuf};
 
+use endoloc_net::ZoneSpec;
 use serde::{Deserialize, Serialize};
 
 use super::common::{self, DataArgs, MethodRow, shell_quote};
@@ -22,47 +23,72 @@ use endoloc_eval::{BoxColumn, HtmlReport, PlotConfig, plot_error_boxes};
 
 /// The chain over several colons, resumable per colon.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct BenchmarkJob {
     /// Output folder.
+    #[cfg_attr(feature = "cli", arg(long, default_value_os_t = BenchmarkJob::default().out))]
     pub out: PathBuf,
-    /// Simulator preset of every colon (`endoloc simulate --preset`).
+    /// Simulator preset of every colon (see the simulate job's `preset`).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = BenchmarkJob::default().preset))]
     pub preset: String,
-    /// Procedural colons: one per simulator seed.
-    pub seeds: Vec<u64>,
-    /// Development colons: simulator seeds on which endoloc's settings were chosen (the
-    /// `paper` preset's seed 0). Run like the others and reported as their own rows, but left
-    /// out of the mean ± interval, which speaks for colons nothing was tuned on.
-    pub dev_seeds: Vec<u64>,
-    /// CT colons: GCA model folders (`endoloc simulate --gca`).
+    /// Procedural colons: simulator seeds, e.g. 1-8, 1,3,5 or none.
+    #[cfg_attr(feature = "cli", arg(long, default_value = "1-8", value_parser = parse_seeds))]
+    pub seeds: Seeds,
+    /// Development colons: seeds on which settings were chosen (the `paper` preset's is 0).
+    /// Run and reported as their own rows, left out of the mean ± interval, which speaks for
+    /// colons nothing was tuned on.
+    #[cfg_attr(feature = "cli", arg(long, default_value = "none", value_parser = parse_seeds))]
+    pub dev_seeds: Seeds,
+    /// A CT colon: GCA model folder (repeatable; see the simulate job's `gca`).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub gca: Vec<PathBuf>,
-    /// Lumen inflation of the CT colons (`endoloc simulate --inflation`).
+    /// Lumen inflation of the CT colons (see the simulate job's `inflation`).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub inflation: Option<f64>,
     /// Frames of each training pass (default: the preset's).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub train_frames: Option<usize>,
     /// Frames of each test pass (default: the preset's).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub test_frames: Option<usize>,
     /// Zones (a count, or `expert`).
-    pub zones: String,
-    /// Start weights of the zone network (`builtin-joint`: the shipped network); empty: the
-    /// paper's training from scratch on each colon.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = BenchmarkJob::default().zones))]
+    pub zones: ZoneSpec,
+    /// Start weights of the zone network: `builtin-joint` (the shipped network, indexed
+    /// without training), a weights file, or `none` (or empty) to train from scratch on each
+    /// colon as in the paper.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = BenchmarkJob::default().pretrained))]
     pub pretrained: String,
     /// Training epochs (default: 0 with `pretrained`, else the schedule's own).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub epochs: Option<usize>,
     /// Seed of every training.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = BenchmarkJob::default().seed))]
     pub seed: u64,
     /// Methods (default: endoloc-paper, endoloc, endoloc-confirm, endoloc-live,
-    /// endoloc-live-confirm, classify).
+    /// endoloc-live-confirm, classify; see the compare experiment).
+    #[cfg_attr(feature = "cli", arg(long, value_delimiter = ','))]
     pub methods: Vec<Method>,
-    /// Run only this colon (a name from `--print-jobs`); the tables are not written.
+    /// Run only this colon (`seed-N`, `dev-seed-N` or `ct-<folder>`, as printed with
+    /// `print_jobs`); the tables are not written.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub colon: Option<String>,
-    /// Print one command per colon (for GNU parallel or a Slurm array) and stop.
+    /// Print one command per colon (for GNU parallel or a Slurm array) and the merge command,
+    /// and stop.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub print_jobs: bool,
     /// Run nothing: write the tables from the colons already finished.
+    #[cfg_attr(feature = "cli", arg(long, conflicts_with = "colon"))]
     pub merge: bool,
     /// Use an output folder that holds something else.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
+
+/// Simulator seeds (a type of its own so that the command line parses the whole list, e.g.
+/// `1-8`, as one value).
+pub type Seeds = Vec<u64>;
 
 impl Default for BenchmarkJob {
     fn default() -> Self {
@@ -75,7 +101,7 @@ impl Default for BenchmarkJob {
             inflation: None,
             train_frames: None,
             test_frames: None,
-            zones: "50".into(),
+            zones: ZoneSpec::default(),
             pretrained: "builtin-joint".into(),
             epochs: None,
             seed: 0,
@@ -256,6 +282,13 @@ const DEFAULT_METHODS: [Method; 6] = [
 ];
 
 impl BenchmarkJob {
+    /// The start weights of the zone network; `None` (`pretrained` empty or `none`): the
+    /// paper's training from scratch.
+    fn pretrained_weights(&self) -> Option<PathBuf> {
+        let p = self.pretrained.trim();
+        (!p.is_empty() && p != "none").then(|| PathBuf::from(p))
+    }
+
     /// Every colon of the benchmark, in order: seeds, CT colons, then development seeds.
     pub fn colons(&self) -> Vec<Colon> {
         let mut v: Vec<Colon> = self
@@ -304,7 +337,7 @@ impl BenchmarkJob {
             "endoloc experiment benchmark --out {} --preset {} --zones {} --seed {}",
             q(&self.out),
             shell_quote(&self.preset),
-            shell_quote(&self.zones),
+            self.zones,
             self.seed
         );
         if self.seeds.is_empty() {
@@ -457,7 +490,7 @@ impl BenchmarkJob {
             note!(progress, "simulating {}", c.name);
             let sim = SimulateJob {
                 preset: self.preset.clone(),
-                seed: c.seed,
+                seed: Some(c.seed),
                 gca: c.gca.clone(),
                 inflation: c.gca.as_ref().and(self.inflation),
                 train_frames: self.train_frames,
@@ -471,10 +504,10 @@ impl BenchmarkJob {
         }
         let model = dir.join("model");
         if !model.join("model.toml").is_file() {
-            let pretrained = (!self.pretrained.is_empty()).then(|| PathBuf::from(&self.pretrained));
+            let pretrained = self.pretrained_weights();
             let train = TrainJob {
                 data: data.clone(),
-                zones: self.zones.clone(),
+                zones: self.zones,
                 out: model.clone(),
                 force: model.exists(),
                 epochs: self.epochs.or(pretrained.as_ref().map(|_| 0)),
@@ -492,7 +525,7 @@ impl BenchmarkJob {
                 ..Default::default()
             },
             out: dir.join("compare"),
-            zones: self.zones.clone(),
+            zones: self.zones,
             epochs: self.epochs,
             seed: self.seed,
             model: Some(model),
@@ -563,7 +596,7 @@ impl BenchmarkJob {
             self.preset,
             frames_note(self.train_frames, self.test_frames),
             self.zones,
-            if self.pretrained.is_empty() {
+            if self.pretrained_weights().is_none() {
                 "trained on each colon".to_string()
             } else {
                 format!("`{}` indexed without training", self.pretrained)

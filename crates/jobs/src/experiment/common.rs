@@ -22,7 +22,7 @@ use endoloc_localize::map_io::load_map;
 use endoloc_localize::{
     ConfirmConfig, FrameResult, Localizer, LocalizerConfig, RetryFeatures, StageTimes,
 };
-use endoloc_net::{ZoneClassifier, ZonePrediction, viterbi};
+use endoloc_net::{ZoneClassifier, ZonePrediction, ZoneSpec, viterbi};
 
 pub(super) use crate::predict::predict_zones;
 use crate::{MapJob, TrainJob};
@@ -31,13 +31,17 @@ use serde::{Deserialize, Serialize};
 
 /// Where an experiment's data is.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct DataArgs {
     /// Dataset with a training and a test sequence.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub data: PathBuf,
     /// Training sequence.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DataArgs::default().train))]
     pub train: String,
     /// Test sequence.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DataArgs::default().test))]
     pub test: String,
 }
 
@@ -89,8 +93,8 @@ impl Data {
 /// How a Siamese model is trained for an experiment.
 #[derive(Debug, Clone)]
 pub(super) struct TrainSpec {
-    /// `--zones` of `endoloc train`: a count or `expert`.
-    pub zones: String,
+    /// Zones of the training (the train job's `zones`).
+    pub zones: ZoneSpec,
     /// Epochs (`None`: the `fast` schedule's default).
     pub epochs: Option<usize>,
     /// Training seed.
@@ -114,7 +118,7 @@ pub(super) fn ensure_model(
     let job = TrainJob {
         data: data.dir.clone(),
         seq: data.train_name.clone(),
-        zones: spec.zones.clone(),
+        zones: spec.zones,
         out: dir.to_path_buf(),
         seed: spec.seed,
         epochs: spec.epochs,

@@ -6,6 +6,7 @@ use crate::error::{Context, Result};
 use endoloc_eval::{HtmlReport, PlotConfig, plot_method_bars};
 use endoloc_localize::map_io::load_map;
 use endoloc_net::ZoneClassifier;
+use endoloc_net::ZoneSpec;
 use serde::{Deserialize, Serialize};
 
 use super::common::{
@@ -19,25 +20,37 @@ use crate::progress::Progress;
 
 /// Compare every method on one dataset: our two-step method (per frame as in the paper,
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct CompareJob {
     /// Where the data is.
+    #[cfg_attr(feature = "cli", command(flatten))]
     pub data: DataArgs,
     /// Output folder.
+    #[cfg_attr(feature = "cli", arg(long, default_value_os_t = CompareJob::default().out))]
     pub out: PathBuf,
     /// Zones (a count, or `expert`).
-    pub zones: String,
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CompareJob::default().zones))]
+    pub zones: ZoneSpec,
     /// Training epochs of the learned models (default: each schedule's own).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub epochs: Option<usize>,
     /// Seed of every training.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CompareJob::default().seed))]
     pub seed: u64,
     /// SURF threshold of the maps; test frames are described at twice it and retried at it
+    /// (as the localize job does by default).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CompareJob::default().threshold))]
     pub threshold: f32,
     /// Use this trained Siamese model (with or without a map) instead of training one.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub model: Option<PathBuf>,
-    /// Methods to run (default: all).
+    /// Methods to run (default: all). endoloc-confirm and endoloc-live-confirm are the
+    /// localize job's defaults; endoloc and endoloc-live localize without confirmation.
+    #[cfg_attr(feature = "cli", arg(long, value_delimiter = ','))]
     pub methods: Vec<Method>,
     /// Use an output folder that holds something else.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
 
@@ -46,7 +59,7 @@ impl Default for CompareJob {
         CompareJob {
             data: Default::default(),
             out: "experiments/compare".into(),
-            zones: "50".into(),
+            zones: ZoneSpec::default(),
             epochs: None,
             seed: 0,
             threshold: endoloc_localize::DEFAULT_MAP_THRESHOLD,
@@ -178,7 +191,7 @@ struct Saved<'a> {
     data: String,
     train: &'a str,
     test: &'a str,
-    zones: &'a str,
+    zones: String,
     epochs: Option<usize>,
     seed: u64,
     threshold: f32,
@@ -210,7 +223,7 @@ impl CompareJob {
             data: args.data.data.display().to_string(),
             train: &args.data.train,
             test: &args.data.test,
-            zones: &args.zones,
+            zones: args.zones.to_string(),
             epochs: args.epochs,
             seed: args.seed,
             threshold: args.threshold,
@@ -223,7 +236,7 @@ impl CompareJob {
         )?;
 
         let spec = TrainSpec {
-            zones: args.zones.clone(),
+            zones: args.zones,
             epochs: args.epochs,
             seed: args.seed,
             pretrained: None,

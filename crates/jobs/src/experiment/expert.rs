@@ -7,7 +7,7 @@ use crate::bail;
 use crate::error::{Context, Result};
 use endoloc_eval::{HtmlReport, PlotConfig, plot_method_bars};
 use endoloc_localize::map_io::load_map;
-use endoloc_net::ZoneClassifier;
+use endoloc_net::{ZoneClassifier, ZoneSpec};
 
 use serde::{Deserialize, Serialize};
 
@@ -20,25 +20,36 @@ use crate::progress::Progress;
 
 /// Anatomical ("expert") zones against uniform ones: train one model on the sections of
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct ExpertJob {
-    /// Where the data is.
+    /// Where the data is (the training sequence needs sections.csv).
+    #[cfg_attr(feature = "cli", command(flatten))]
     pub data: DataArgs,
     /// Output folder.
+    #[cfg_attr(feature = "cli", arg(long, default_value_os_t = ExpertJob::default().out))]
     pub out: PathBuf,
     /// Anatomical zones in all (the sections, long ones subdivided).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ExpertJob::default().count))]
     pub count: usize,
     /// Uniform zone count to compare with.
+    #[cfg_attr(feature = "cli", arg(long, conflicts_with = "sweep"))]
     pub uniform: Option<usize>,
     /// Take the uniform count from a finished zone sweep (its best median).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub sweep: Option<PathBuf>,
     /// Training epochs (default: the `fast` schedule's).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub epochs: Option<usize>,
     /// Training seed.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ExpertJob::default().seed))]
     pub seed: u64,
     /// SURF threshold of the maps; test frames are described at twice it and retried at it
+    /// (as the localize job does by default).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ExpertJob::default().threshold))]
     pub threshold: f32,
     /// Use an output folder that holds something else.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
 
@@ -113,12 +124,12 @@ impl ExpertJob {
         let variants = [
             (
                 format!("expert-{}", args.count),
-                format!("expert:{}", args.count),
+                ZoneSpec::Expert(Some(args.count)),
                 format!("anatomical sections subdivided to {} zones", args.count),
             ),
             (
                 format!("uniform-{uniform}"),
-                uniform.to_string(),
+                ZoneSpec::Uniform(uniform),
                 format!("{uniform} zones of equal arc length"),
             ),
         ];
@@ -130,7 +141,7 @@ impl ExpertJob {
                 &model,
                 &data,
                 &TrainSpec {
-                    zones: zones.clone(),
+                    zones: *zones,
                     epochs: args.epochs,
                     seed: args.seed,
                     pretrained: None,

@@ -19,7 +19,8 @@ mod perturb;
 mod zones;
 
 pub use benchmark::{
-    BenchmarkJob, BenchmarkReport, ColonRow, Interval, MethodSummary, interval, parse_seeds, t95,
+    BenchmarkJob, BenchmarkReport, ColonRow, Interval, MethodSummary, Seeds, interval, parse_seeds,
+    t95,
 };
 pub use common::{DataArgs as ExperimentData, ExperimentReport, MethodRow};
 pub use compare::{CompareJob, Method as CompareMethod};

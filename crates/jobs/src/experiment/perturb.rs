@@ -11,6 +11,7 @@ use endoloc_geometry::Status;
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{Localizer, LocalizerConfig, StageTimes};
 use endoloc_net::ZoneClassifier;
+use endoloc_net::ZoneSpec;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -22,29 +23,42 @@ use crate::progress::{Progress, bar};
 
 /// Force the zone of each test frame to k ± e (k: its true zone, from the ground-truth pose)
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct PerturbJob {
     /// Where the data is.
+    #[cfg_attr(feature = "cli", command(flatten))]
     pub data: DataArgs,
     /// Output folder.
+    #[cfg_attr(feature = "cli", arg(long, default_value_os_t = PerturbJob::default().out))]
     pub out: PathBuf,
     /// Largest zone offset e.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PerturbJob::default().max))]
     pub max: usize,
     /// Use every n-th test frame.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PerturbJob::default().every))]
     pub every: usize,
     /// Map points also come from this many zones on each side of the forced one (0: the
+    /// forced zone's points only, as in the paper).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PerturbJob::default().neighbours))]
     pub neighbours: usize,
     /// Trained model to use (trained into OUT/models/siamese when absent).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub model: Option<PathBuf>,
     /// Zones when training a model.
-    pub zones: String,
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PerturbJob::default().zones))]
+    pub zones: ZoneSpec,
     /// Training epochs when training a model.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub epochs: Option<usize>,
     /// Training seed.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PerturbJob::default().seed))]
     pub seed: u64,
     /// SURF threshold of a map built here and of the test frames.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = PerturbJob::default().threshold))]
     pub threshold: f32,
     /// Use an output folder that holds something else.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
 
@@ -57,7 +71,7 @@ impl Default for PerturbJob {
             every: 1,
             neighbours: 0,
             model: None,
-            zones: "50".into(),
+            zones: ZoneSpec::default(),
             epochs: None,
             seed: 0,
             threshold: endoloc_localize::DEFAULT_MAP_THRESHOLD,
@@ -111,7 +125,7 @@ impl PerturbJob {
             &model,
             &data,
             &TrainSpec {
-                zones: args.zones.clone(),
+                zones: args.zones,
                 epochs: args.epochs,
                 seed: args.seed,
                 pretrained: None,

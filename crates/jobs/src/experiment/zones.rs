@@ -9,7 +9,7 @@ use crate::error::{Context, Result};
 use endoloc_eval::stats::{mean, median};
 use endoloc_eval::{BoxColumn, HtmlReport, PlotConfig, plot_error_boxes};
 use endoloc_geometry::Status;
-use endoloc_net::ZoneClassifier;
+use endoloc_net::{ZoneClassifier, ZoneSpec};
 use serde::{Deserialize, Serialize};
 
 use super::common::{
@@ -21,39 +21,59 @@ use crate::progress::Progress;
 
 /// Sweep the number of uniform zones: for every count from --from to --to (step --step),
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct ZoneSweepJob {
     /// Where the data is.
+    #[cfg_attr(feature = "cli", command(flatten))]
     pub data: DataArgs,
     /// Output folder.
+    #[cfg_attr(feature = "cli", arg(long, default_value_os_t = ZoneSweepJob::default().out))]
     pub out: PathBuf,
     /// Smallest zone count.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ZoneSweepJob::default().from))]
     pub from: usize,
     /// Largest zone count.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ZoneSweepJob::default().to))]
     pub to: usize,
     /// Step between zone counts.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ZoneSweepJob::default().step))]
     pub step: usize,
     /// Runs (training seeds 0, 1, …) per zone count.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ZoneSweepJob::default().runs))]
     pub runs: usize,
     /// Training epochs per run (the `fast` schedule with fewer epochs, to fit a night).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ZoneSweepJob::default().epochs))]
     pub epochs: usize,
     /// SURF threshold of the maps; test frames are described at twice it and retried at it
+    /// (as the localize job does by default).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ZoneSweepJob::default().threshold))]
     pub threshold: f32,
     /// Zones tried per frame (1 = the paper's rule).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ZoneSweepJob::default().candidate_zones))]
     pub candidate_zones: usize,
     /// Keep each run's model folder (weights, descriptors) instead of deleting it once the
+    /// run is recorded (its map is kept for the next runs either way).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub keep_models: bool,
     /// Start weights of every run's zone network: a file, or `builtin`, `builtin-track`,
-    /// `builtin-joint` (the shipped networks). With `--epochs 0` a run only indexes the
-    /// training pass with them (no training: one run per count is enough).
+    /// `builtin-joint` (the shipped networks). With 0 `epochs` a run only indexes the training
+    /// pass with them (the shipped network without training; one run per count).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub pretrained: Option<PathBuf>,
-    /// Run only this cell of the grid, `COUNT:RUN` (e.g. `50:3`); the tables are not written.
+    /// Run only this cell of the grid, COUNT:RUN (e.g. 50:3), as printed with `print_jobs`;
+    /// the tables are not written.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "COUNT:RUN", conflicts_with_all = ["print_jobs", "merge"]))]
     pub cell: Option<String>,
-    /// Print one command per cell (for GNU parallel or a Slurm array) and stop.
+    /// Print one command per cell (for GNU parallel or a Slurm job array) and the merge
+    /// command, and stop.
+    #[cfg_attr(feature = "cli", arg(long, conflicts_with = "merge"))]
     pub print_jobs: bool,
-    /// Run nothing: write the tables from the cells already finished.
+    /// Run nothing: write the tables from the cells already finished (and list the others).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub merge: bool,
     /// Use an output folder that holds something else.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
 
@@ -399,7 +419,7 @@ impl ZoneSweepJob {
         let dir = &run_dirs[r];
         let t = Instant::now();
         let spec = TrainSpec {
-            zones: n.to_string(),
+            zones: ZoneSpec::Uniform(n),
             epochs: Some(args.epochs),
             seed: r as u64,
             pretrained: args.pretrained.clone(),

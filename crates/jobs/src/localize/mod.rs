@@ -31,6 +31,7 @@ use crate::progress::{Progress, bar};
 
 /// A localization method: endoloc's, or a baseline of the paper's Table I.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum LocalizeMethod {
     /// The paper's two-step method (zone, then SURF map matching and Gauss-Newton).
@@ -66,74 +67,130 @@ impl LocalizeMethod {
 /// per frame with a pose) and, for endoloc, `frames.csv` (one row per frame: zone, status,
 /// reason, inliers, reprojection RMS, time) into `out`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct LocalizeJob {
-    /// Method.
+    /// Method: `endoloc` (the two-step method) or a baseline of the paper's Table I:
+    /// `classify` (zone median pose), `retrieval` (pose of the nearest training image),
+    /// `posenet` (`model` is a PoseNet folder trained with the train job's `method` posenet),
+    /// `offsetnet` (`model` the Siamese model for retrieval, `regressor` the OffsetNet folder,
+    /// `reference_seq` the training sequence) or `vo` (monocular visual odometry; the first
+    /// pose and the scale come from the sequence's poses.txt). Baselines write trajectory.txt
+    /// only.
+    #[cfg_attr(feature = "cli", arg(long, value_enum, default_value_t = LocalizeMethod::default()))]
     pub method: LocalizeMethod,
     /// Model folder (trained, with its map; for `posenet` the PoseNet folder).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub model: Option<PathBuf>,
-    /// Zone models joined to `model` into an ensemble (same pass and zones).
+    /// Ensemble: join this zone model to `model` (same training pass and zones; repeatable).
+    /// The map is `model`'s.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub also_model: Vec<PathBuf>,
-    /// OffsetNet model folder (`offsetnet`).
+    /// OffsetNet model folder (method `offsetnet`).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub regressor: Option<PathBuf>,
-    /// Training sequence folder holding the reference images (`offsetnet`).
+    /// Training sequence folder holding the reference images (method `offsetnet`).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub reference_seq: Option<PathBuf>,
-    /// Sequence folder to localize (inside a dataset folder).
+    /// Sequence folder to localize (images/ and, for evaluation, poses.txt), e.g.
+    /// data/small/test.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub seq: PathBuf,
     /// Output folder.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub out: PathBuf,
-    /// Frames one at a time, in order, as a scope delivers them.
+    /// Live mode: frames one at a time, in order, as a scope delivers them (causal zone
+    /// filter, no look-ahead). After a refined frame the next one is first registered from
+    /// that pose (see `track_frames`).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub live: bool,
-    /// Live: frames a refined pose stays usable as the next frames' prior (0: off).
+    /// Live mode: frames a refined pose stays usable as the next frames' prior (0: every frame
+    /// starts from its zone's median pose, as in the paper).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().track_frames))]
     pub track_frames: usize,
-    /// Live: frames after a refined one during which the zones around it are tried (0: off).
+    /// Live mode: for this many frames after a refined one, frames that register nowhere else
+    /// also try the zones around it (one behind, two ahead); 0: off.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().recover_frames))]
     pub recover_frames: usize,
-    /// Live: the motion model predicts for at most this many frames after the last refined
-    /// one; an `init_only` frame reports the prediction (0: always the zone median, no gate).
+    /// Live mode: the motion model (damped constant velocity) predicts the pose for at most
+    /// this many frames after the last refined one; an init_only frame reports that
+    /// prediction instead of its zone's median, and weak registrations must agree with it;
+    /// 0: always the zone median, no gate.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().hold_frames))]
     pub hold_frames: usize,
-    /// Live: run the zone classifier on every frame, also on frames tracked from the motion
-    /// model's prediction ([`LocalizerConfig::classify_tracked`]).
+    /// Live mode: run the zone classifier on every frame. By default a frame registered from
+    /// the motion model's prediction is not classified (its zone is the one its pose lies in,
+    /// its zone score empty in frames.csv): the classifier runs only when tracking fails.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub classify_every_frame: bool,
-    /// Live: a registration with at least this many inliers is trusted without the motion
-    /// model's agreement.
+    /// Live mode: a registration with at least this many inliers is trusted without the
+    /// motion model's agreement (fewer: it must agree with the prediction, or be confirmed by
+    /// the next frame's registration).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().trusted_inliers))]
     pub trusted_inliers: usize,
-    /// Live: base radius of the motion gate around the predicted camera centre, mm.
+    /// Live mode: base radius of the motion gate around the predicted camera centre, mm
+    /// (grows by 1 mm per frame since the last refined one).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().gate_mm))]
     pub gate_mm: f64,
     /// Map points also come from this many zones on each side of the classified one.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().neighbours))]
     pub neighbours: usize,
-    /// SURF threshold on the test frames (`None`: twice the map's).
+    /// SURF threshold on the test frames (default: twice the map's).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub threshold: Option<f32>,
-    /// Retry threshold for frames that register nowhere (`None`: the map's; 0: off).
+    /// A frame that registers nowhere is described again at this lower SURF threshold and
+    /// tried once more (default: the map's threshold; 0: off).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub retry_threshold: Option<f32>,
-    /// At most this many SURF keypoints per test frame, the strongest (0: all).
+    /// Keep at most this many SURF keypoints per test frame, the strongest (0: all).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().max_keypoints))]
     pub max_keypoints: usize,
-    /// Zones tried, best score first, until one registers (1 = the paper's rule).
+    /// Zones tried (best classifier score first) until one registers; 1 = trust the top zone
+    /// as the paper does.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().candidate_zones))]
     pub candidate_zones: usize,
-    /// Validity: largest position uncertainty (1σ) of a refined pose, mm.
+    /// Validity: largest predicted position uncertainty (1σ, mm) of a refined pose; frames
+    /// above it keep the zone's median pose as `init_only` (degenerate_geometry).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().max_sigma_mm))]
     pub max_sigma_mm: f64,
-    /// Per frame: largest stated position uncertainty of a refined frame, mm
-    /// ([`LocalizerConfig::max_std_mm`]).
+    /// Per frame: largest stated position uncertainty (the frames.csv standard deviation,
+    /// mm) of a refined frame; above it the frame is `init_only` (uncertain) and keeps its
+    /// registered pose (source `registered`). Default: no limit; 1.5 with `weak_max_std_mm`
+    /// 0.75 suits 640×480 frames.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().max_std_mm))]
     pub max_std_mm: f64,
-    /// Per frame: the same for registrations with fewer than `trusted_inliers` inliers
-    /// ([`LocalizerConfig::weak_max_std_mm`]).
+    /// Per frame: as `max_std_mm`, for registrations with fewer than `trusted_inliers`
+    /// inliers.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().weak_max_std_mm))]
     pub weak_max_std_mm: f64,
-    /// Confirm registrations against all map points near their pose and refine them again
-    /// from those ([`endoloc_localize::confirm`](mod@endoloc_localize::confirm)); a
-    /// registration they do not support is `init_only` (reason `unsupported`). On by default
-    /// (`--no-confirm` turns it off); live, strong tracked registrations are trusted as they
-    /// are ([`ConfirmConfig::trust_tracked_inliers`]).
+    /// Confirm registrations against the map (on by default; `no_confirm` turns it off).
+    /// Every registration (live: every one not tracked from the prediction with 50 inliers or
+    /// more) is checked against all map points near its pose, matched in shrinking windows
+    /// around their projections, and refined again from them: sharper poses, and one that few
+    /// of them support is `init_only` (unsupported) with its registered pose (source
+    /// `registered`); live, the motion model keeps the translation undamped through frames
+    /// that register nowhere. Without confirmation a frame takes about 10 % less time live and
+    /// 30 % less per frame, and wrong `refined` poses are far more common.
+    #[cfg_attr(feature = "cli", arg(long = "no-confirm", action = clap::ArgAction::SetFalse))]
     pub confirm: bool,
     /// Validity: largest RMS reprojection error of the inliers, pixels.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().max_rms_px))]
     pub max_rms_px: f64,
-    /// Validity: largest jump from the prior, mm.
+    /// Validity: largest jump from the prior (the zone's median pose, or in live mode the last
+    /// refined pose), mm.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().max_jump_mm))]
     pub max_jump_mm: f64,
-    /// Scale of the Cauchy kernel of the final polish on the inliers, pixels (0: least
-    /// squares, the efficient choice when the map points are exact and the noise Gaussian).
+    /// Scale of the Cauchy kernel of the final polish on the inliers, pixels: map points are
+    /// now and then a pixel or two off where a new view sees them, and the kernel all but
+    /// ignores those. 0: least squares on the inliers.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().polish_px))]
     pub polish_px: f64,
-    /// Stop at the first image that cannot be read instead of reporting the frame as
-    /// `rejected` (`unreadable_image`) and going on.
+    /// Stop at the first image that cannot be read (for batch checks) instead of
+    /// reporting the frame as `rejected` (reason `unreadable_image`) and going on.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub strict: bool,
     /// Replace existing results in `out`.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
 }
 

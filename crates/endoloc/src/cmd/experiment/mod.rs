@@ -8,11 +8,8 @@ mod expert;
 mod perturb;
 mod zones;
 
-use std::path::PathBuf;
-
 use anyhow::Result;
 use endoloc_jobs::Progress;
-use endoloc_jobs::experiment::ExperimentData;
 
 /// Run the paper's comparisons and studies (Table I, Fig. 4, Fig. 7, anatomical zones) and the
 /// benchmark across colons.
@@ -29,30 +26,6 @@ enum What {
     Zones(zones::Args),
     Expert(expert::Args),
     Perturb(perturb::Args),
-}
-
-/// Where an experiment's data is (flattened into each experiment's arguments).
-#[derive(Debug, Clone, clap::Args)]
-struct DataArgs {
-    /// Dataset with a training and a test sequence.
-    #[arg(long, value_name = "DIR")]
-    data: PathBuf,
-    /// Training sequence.
-    #[arg(long, default_value_t = ExperimentData::default().train)]
-    train: String,
-    /// Test sequence.
-    #[arg(long, default_value_t = ExperimentData::default().test)]
-    test: String,
-}
-
-impl From<DataArgs> for ExperimentData {
-    fn from(a: DataArgs) -> Self {
-        ExperimentData {
-            data: a.data,
-            train: a.train,
-            test: a.test,
-        }
-    }
 }
 
 /// Runs `endoloc experiment`.
