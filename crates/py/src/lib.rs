@@ -11,6 +11,7 @@ mod convert;
 mod dataset;
 mod jobs;
 mod localizer;
+mod options;
 
 use pyo3::prelude::*;
 

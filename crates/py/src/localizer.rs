@@ -315,8 +315,8 @@ const NOT_LOCALIZER_OPTIONS: &[&str] = &[
 ];
 
 /// The keyword arguments of `Localizer`: the localize job's, less [`NOT_LOCALIZER_OPTIONS`].
-fn localizer_keywords() -> PyResult<Vec<crate::jobs::Keyword>> {
-    Ok(crate::jobs::keywords_of("localize")?
+fn localizer_keywords() -> PyResult<Vec<crate::options::Keyword>> {
+    Ok(crate::options::keywords_of("localize")?
         .into_iter()
         .filter(|k| !NOT_LOCALIZER_OPTIONS.contains(&k.field.as_str()))
         .collect())
@@ -346,7 +346,7 @@ impl PyLocalizer {
             Some(d) => table_from_dict(d)?,
             None => toml::Table::new(),
         };
-        let mut t = crate::jobs::table_from_keywords("Localizer", &localizer_keywords()?, t)?;
+        let mut t = crate::options::table_from_keywords("Localizer", &localizer_keywords()?, t)?;
         t.insert(
             "model".into(),
             toml::Value::String(dir.to_string_lossy().into_owned()),
