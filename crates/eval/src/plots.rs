@@ -7,7 +7,7 @@
 //! - `errors_along.png`: position (mm) and orientation (°) error against the frame index.
 //! - `error_cdf.png`: cumulative distribution of both errors.
 //!
-//! What they draw is [`PlotData`], collected during the evaluation and bounded whatever the
+//! What they draw is [`PlotData`](crate::PlotData), collected during the evaluation and bounded whatever the
 //! pass length (`crate::plot_data`).
 //!
 //! Text needs a system font, found through fontconfig (the workspace's plotters `ttf`

@@ -28,7 +28,7 @@ pub enum DatasetAction {
     Info,
     /// Find the image mask (black border, circular field stop) from frames sampled over
     /// every sequence (lit in some frame = valid; holes filled; a circle or rectangle fitted
-    /// when one fits), write it as mask.png and name it in dataset.toml ([camera] mask).
+    /// when one fits), write it as mask.png and name it in dataset.toml (`[camera] mask`).
     /// SURF, maps, localization and the VO baseline then keep inside it.
     Mask,
 }

@@ -37,7 +37,7 @@ pub(super) fn check_mask(
     Ok(())
 }
 
-/// Decodes the bytes of a dataset's mask PNG (see [`Dataset::load_mask`]) and checks it
+/// Decodes the bytes of a dataset's mask PNG (see [`Dataset::load_mask`](crate::Dataset::load_mask)) and checks it
 /// against `camera`; `path` names the file in errors.
 ///
 /// # Errors

@@ -30,7 +30,7 @@ struct WriterShared {
     sequences: Mutex<BTreeMap<String, bool>>,
 }
 
-/// Writes a dataset; see the [module docs](self).
+/// Writes a dataset; see the [module docs](crate::dataset).
 ///
 /// ```no_run
 /// # use endoloc_data::{DatasetMeta, DatasetWriter, StampedPose};

@@ -50,7 +50,7 @@ pub struct LocalizerConfig {
     /// Live mode only: the motion model and its gate ([`MotionConfig`]).
     pub motion: MotionConfig,
     /// Live mode only: run the zone classifier on every frame. Off (default): a frame that
-    /// registers from the motion model's prediction ([`LocalizerConfig::track_frames`]) is
+    /// registers from the motion model's prediction ([`LocalizerConfig::track_frames`](crate::LocalizerConfig::track_frames)) is
     /// not classified — its zone is the one its pose lies in, its `zone_score` is NaN — and
     /// the classifier runs only when tracking fails. The zone filters are anchored at every
     /// refined pose, so what a tracked frame's classification would have told them is
@@ -73,10 +73,10 @@ pub struct LocalizerConfig {
     /// `init_only` (reason `uncertain`) and keeps its registered pose (source `registered`).
     /// Infinity (default): off. The stated uncertainty grows as the images shrink, so a limit
     /// suits one camera: on the `paper` preset (640×480) 1.5 mm, with
-    /// [`LocalizerConfig::weak_max_std_mm`] 0.75 mm, leaves 2 of 2603 refined frames more
+    /// [`LocalizerConfig::weak_max_std_mm`](crate::LocalizerConfig::weak_max_std_mm) 0.75 mm, leaves 2 of 2603 refined frames more
     /// than 5 mm off instead of 85, at 81.9 % refined instead of 94.9 %.
     pub max_std_mm: f64,
-    /// As [`LocalizerConfig::max_std_mm`], for registrations with fewer inliers: wrong
+    /// As [`LocalizerConfig::max_std_mm`](crate::LocalizerConfig::max_std_mm), for registrations with fewer inliers: wrong
     /// registrations (a neighbouring zone's points in a spurious consensus, the camera placed
     /// millimetres too far along the lumen) come with few inliers and a larger stated
     /// uncertainty than right ones.

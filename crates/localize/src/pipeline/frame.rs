@@ -22,7 +22,7 @@ pub struct Localizer {
     pub(super) map: Map,
     pub(super) cfg: LocalizerConfig,
     pub(super) surf: Surf,
-    /// SURF at [`LocalizerConfig::retry_threshold`], when that is on.
+    /// SURF at [`LocalizerConfig::retry_threshold`](crate::LocalizerConfig::retry_threshold), when that is on.
     pub(super) retry_surf: Option<Surf>,
     pub(super) matcher: Matcher,
     /// The live motion gate for this model's training pass.
@@ -32,7 +32,7 @@ pub struct Localizer {
     pub(super) mask: Option<std::sync::Arc<image::GrayImage>>,
 }
 
-/// A frame's SURF features at [`LocalizerConfig::retry_threshold`], extracted beforehand.
+/// A frame's SURF features at [`LocalizerConfig::retry_threshold`](crate::LocalizerConfig::retry_threshold), extracted beforehand.
 #[derive(Debug, Clone, Copy)]
 pub struct RetryFeatures<'a> {
     /// The features (with [`Localizer::retry_surf`]).
@@ -399,7 +399,7 @@ impl Localizer {
 
     /// Localizes a frame given the classifier's prediction and the zone chosen from it (the
     /// top zone, or a temporally filtered one): that zone first, then the next best-scoring
-    /// zones (up to [`LocalizerConfig::candidate_zones`] in all) until one gives `refined`
+    /// zones (up to [`LocalizerConfig::candidate_zones`](crate::LocalizerConfig::candidate_zones) in all) until one gives `refined`
     /// with the trusted inlier count; otherwise the refined result with the most inliers, or
     /// when none registers the chosen zone's verdict.
     ///
@@ -448,7 +448,7 @@ impl Localizer {
     }
 
     /// A per-frame registration stays `refined` only when its stated position uncertainty is
-    /// within [`LocalizerConfig::max_std_mm`] (or [`LocalizerConfig::weak_max_std_mm`] with
+    /// within [`LocalizerConfig::max_std_mm`](crate::LocalizerConfig::max_std_mm) (or [`LocalizerConfig::weak_max_std_mm`](crate::LocalizerConfig::weak_max_std_mm) with
     /// fewer than the trusted inlier count); otherwise it is `init_only` with reason
     /// `uncertain`, and keeps its pose and uncertainty.
     pub(super) fn trusted_alone(&self, mut r: FrameResult) -> FrameResult {
@@ -640,7 +640,7 @@ impl Localizer {
         &self.surf
     }
 
-    /// The SURF extractor of the retry ([`LocalizerConfig::retry_threshold`]), when on.
+    /// The SURF extractor of the retry ([`LocalizerConfig::retry_threshold`](crate::LocalizerConfig::retry_threshold)), when on.
     pub fn retry_surf(&self) -> Option<&Surf> {
         self.retry_surf.as_ref()
     }

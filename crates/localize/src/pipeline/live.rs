@@ -84,10 +84,10 @@ impl Localizer {
 
     /// Localizes the next frame of a live stream (frames in order, one at a time): predict the
     /// pose from the recent refined frames ([`crate::motion`]) and register from that
-    /// prediction when it is recent ([`LocalizerConfig::track_frames`]); otherwise (or if
+    /// prediction when it is recent ([`LocalizerConfig::track_frames`](crate::LocalizerConfig::track_frames)); otherwise (or if
     /// that fails) classify, fold the prediction into the causal filters (track filter, zone
     /// HMM) and register from the filtered zone and the candidate zones; then gate the
-    /// registration against the prediction. [`LocalizerConfig::classify_tracked`] classifies
+    /// registration against the prediction. [`LocalizerConfig::classify_tracked`](crate::LocalizerConfig::classify_tracked) classifies
     /// every frame.
     ///
     /// # Errors
@@ -271,7 +271,7 @@ impl Localizer {
     }
 
     /// Registration from the motion model's `prediction` when it is recent
-    /// ([`LocalizerConfig::track_frames`]): guided matching in the zone the predicted pose
+    /// ([`LocalizerConfig::track_frames`](crate::LocalizerConfig::track_frames)): guided matching in the zone the predicted pose
     /// lies in; it counts only when refined and in agreement with the prediction. `pred`
     /// gives the zone's score (NaN without it).
     fn track(
@@ -351,7 +351,7 @@ impl Localizer {
     /// ([`Prediction::vouches_for`]: it agrees, as a weak registration must at the motion
     /// gate, and its stated 95 % bound fits inside the gate's base radius); one found
     /// `ambiguous` (two poses apart, nearly equally supported) when the better supported
-    /// agrees with a recent prediction (at most [`LocalizerConfig::track_frames`] old, while
+    /// agrees with a recent prediction (at most [`LocalizerConfig::track_frames`](crate::LocalizerConfig::track_frames) old, while
     /// the gate is still narrow): the motion tells the two apart.
     fn disambiguate(&self, mut r: FrameResult, prediction: Option<&Prediction>) -> FrameResult {
         let std_mm = r.position_std_mm;

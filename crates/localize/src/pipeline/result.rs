@@ -67,7 +67,7 @@ pub struct FrameResult {
     pub zone: usize,
     /// The classifier's score of that zone (descriptor distance, lower = better); NaN when the
     /// frame was not classified (live, tracked from the motion model's prediction: see
-    /// [`LocalizerConfig::classify_tracked`]).
+    /// [`LocalizerConfig::classify_tracked`](crate::LocalizerConfig::classify_tracked)).
     pub zone_score: f32,
     /// `refined`, `init_only` or `rejected`.
     pub status: Status,
@@ -79,7 +79,7 @@ pub struct FrameResult {
     /// Where [`FrameResult::t_wc`] comes from.
     pub source: PoseSource,
     /// Calibrated standard deviation of the camera centre along its least certain direction,
-    /// mm ([`LocalizerConfig::uncertainty_scale`] × the Gauss-Newton covariance's); NaN
+    /// mm ([`LocalizerConfig::uncertainty_scale`](crate::LocalizerConfig::uncertainty_scale) × the Gauss-Newton covariance's); NaN
     /// unless refined.
     pub position_std_mm: f64,
     /// Calibrated standard deviation of the orientation about its least certain axis,
