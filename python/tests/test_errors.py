@@ -78,7 +78,7 @@ def test_job_options_are_checked_before_anything_runs(tmp_path):
 def test_a_job_error_carries_every_cause(tiny, tmp_path):
     out = tmp_path / "run"
     endoloc.localize(model=tiny / "model", seq=tiny / "data" / "test", out=out)
-    with pytest.raises(endoloc.EndolocError, match=r"trajectory.txt exists; pass --force"):
+    with pytest.raises(endoloc.EndolocError, match=r"trajectory.txt exists; `force` replaces it"):
         endoloc.localize(model=tiny / "model", seq=tiny / "data" / "test", out=out)
     endoloc.localize(model=tiny / "model", seq=tiny / "data" / "test", out=out, force=True)
     with pytest.raises(endoloc.EndolocError, match=r"no sequence \"validation\" in this dataset; it has: test, train"):

@@ -445,7 +445,7 @@ fn the_dataset_root_names_its_colon_folders() {
     assert!(
         m.contains("SimCol3D dataset folder")
             && m.contains("SyntheticColon_I, SyntheticColon_II")
-            && m.contains("--sequence S1"),
+            && m.contains("`sequence` S1"),
         "{m}"
     );
     // Its colon folder imports.

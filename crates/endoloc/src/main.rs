@@ -11,7 +11,7 @@
 mod cmd;
 mod ui;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// Tell where a colonoscope is inside the colon from the images it sees.
 ///
@@ -60,7 +60,8 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     ui::init_logging(cli.verbose);
     let ui = ui::Terminal::new(cli.quiet);
     let ui = &ui;
@@ -84,7 +85,8 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {}", error_message(&err));
+            let text = flags_for_fields(&error_message(&err), &leaf_command(&matches));
+            eprintln!("error: {text}");
             std::process::ExitCode::from(EXIT_REFUSED)
         }
     }
@@ -111,4 +113,110 @@ fn error_message(err: &anyhow::Error) -> String {
         text.push_str(&line);
     }
     text
+}
+
+/// The subcommand that ran (`experiment zones`, not `experiment`), with its arguments.
+fn leaf_command(matches: &clap::ArgMatches) -> clap::Command {
+    let mut command = Cli::command();
+    let mut matches = matches;
+    while let Some((name, sub)) = matches.subcommand() {
+        match command.find_subcommand(name) {
+            Some(c) => command = c.clone(),
+            None => break,
+        }
+        matches = sub;
+    }
+    command
+}
+
+/// The libraries name a job's options by field, in backticks (`` `min_zone_frames` ``), as
+/// the TOML of `endoloc run` and the Python keywords spell them; on the command line they are
+/// flags. Each such name of one of `command`'s options becomes its `--flag`; any other text
+/// in backticks stays as it is, and so does everything from a TOML or JSON parser's report on
+/// (`unknown field `x`, expected one of …` lists the keys of a file, not options).
+fn flags_for_fields(message: &str, command: &clap::Command) -> String {
+    const PARSER_REPORTS: [&str; 4] = [
+        "unknown field `",
+        "unknown variant `",
+        "missing field `",
+        "expected one of `",
+    ];
+    let parser_report = PARSER_REPORTS
+        .iter()
+        .filter_map(|m| message.find(m))
+        .min()
+        .unwrap_or(message.len());
+    let (message, rest) = message.split_at(parser_report);
+    let mut text = options_as_flags(message, command);
+    text.push_str(rest);
+    text
+}
+
+fn options_as_flags(message: &str, command: &clap::Command) -> String {
+    let long_of = |name: &str| {
+        command.get_arguments().find_map(|arg| {
+            let long = arg.get_long()?;
+            (arg.get_id().as_str() == name || long.replace('-', "_") == name).then_some(long)
+        })
+    };
+    let pieces: Vec<&str> = message.split('`').collect();
+    let mut text = String::with_capacity(message.len());
+    for (i, piece) in pieces.iter().enumerate() {
+        // Odd pieces lie between two backticks; an unpaired last backtick stays literal.
+        let quoted = i % 2 == 1 && i + 1 < pieces.len();
+        match long_of(piece).filter(|_| quoted) {
+            Some(long) => {
+                text.push_str("--");
+                text.push_str(long);
+            }
+            None if quoted => {
+                text.push('`');
+                text.push_str(piece);
+                text.push('`');
+            }
+            None => {
+                if i > 0 && i % 2 == 1 {
+                    text.push('`');
+                }
+                text.push_str(piece);
+            }
+        }
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn train() -> clap::Command {
+        Cli::command().find_subcommand("train").unwrap().clone()
+    }
+
+    #[test]
+    fn field_names_in_messages_become_the_commands_flags() {
+        let m = "`pair_frames` 8: expected P,N; a larger `min_zone_frames`; `force` replaces it";
+        assert_eq!(
+            flags_for_fields(m, &train()),
+            "--pair-frames 8: expected P,N; a larger --min-zone-frames; --force replaces it"
+        );
+    }
+
+    #[test]
+    fn a_parsers_list_of_file_keys_stays() {
+        let m = "`seed` in sim.toml: unknown field `colour`, expected one of `name`, `seed`";
+        assert_eq!(
+            flags_for_fields(
+                m,
+                &Cli::command().find_subcommand("simulate").unwrap().clone()
+            ),
+            "--seed in sim.toml: unknown field `colour`, expected one of `name`, `seed`"
+        );
+    }
+
+    #[test]
+    fn other_quoted_text_and_unpaired_backticks_stay() {
+        let m = "expected `average` or `gem` in `x.toml`; a stray ` here";
+        assert_eq!(flags_for_fields(m, &train()), m);
+    }
 }

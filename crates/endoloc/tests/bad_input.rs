@@ -625,7 +625,7 @@ fn catalogue() -> Vec<Case> {
             "map built for another model (localize)",
             &[
                 "built for zones with fingerprint",
-                "rebuild it with endoloc map",
+                "rebuild it with the map job (--model",
             ],
             |fx, d| {
                 let m = model_copy(fx, d);

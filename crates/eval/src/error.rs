@@ -51,7 +51,7 @@ pub enum EvalError {
     #[error("{0}")]
     Invalid(String),
     /// An output file exists and overwriting was not asked for.
-    #[error("{}: already exists (pass --force to overwrite, or choose another output folder)", path.display())]
+    #[error("{}: already exists (`force` overwrites it, or choose another output folder)", path.display())]
     AlreadyExists {
         /// The existing file.
         path: PathBuf,

@@ -123,7 +123,7 @@ mod tests {
             matches!(&err, EvalError::AlreadyExists { path } if path == &old),
             "{err}"
         );
-        assert!(err.to_string().contains("--force"), "{err}");
+        assert!(err.to_string().contains("`force`"), "{err}");
         assert_eq!(std::fs::read_to_string(&old).unwrap(), "user's results");
 
         refuse_existing(&[&new], false).unwrap();

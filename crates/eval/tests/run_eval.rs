@@ -193,7 +193,7 @@ fn outputs_are_written_once_and_plots_render_with_and_without_text() {
     let before = std::fs::read(out.join("metrics.json")).unwrap();
     let err = write_results(&e, &out, &opts).unwrap_err().to_string();
     assert!(
-        err.contains("already exists") && err.contains("--force"),
+        err.contains("already exists") && err.contains("`force`"),
         "{err}"
     );
     assert_eq!(std::fs::read(out.join("metrics.json")).unwrap(), before);

@@ -289,7 +289,7 @@ impl ClassifyJob {
         let filter = self.filter.trim().to_ascii_lowercase();
         if !["none", "raw", "forward", "viterbi", "track", "smooth"].contains(&filter.as_str()) {
             bail!(
-                "--filter {}: expected none, forward, viterbi, track or smooth",
+                "`filter` {}: expected none, forward, viterbi, track or smooth",
                 self.filter
             );
         }
@@ -301,7 +301,7 @@ impl ClassifyJob {
             .chain(&self.descriptors)
             .collect();
         if (1..outputs.len()).any(|i| outputs[..i].contains(&outputs[i])) {
-            bail!("--out, --scores and --descriptors must name different files");
+            bail!("`out`, `scores` and `descriptors` must name different files");
         }
         refuse_existing(&outputs, self.force)?;
         let loaded = load_classifier(&self.model, &self.also_model, &self.device)?;

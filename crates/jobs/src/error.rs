@@ -38,7 +38,7 @@ pub enum JobError {
         source: std::io::Error,
     },
     /// An output exists and `force` was not given; nothing was written.
-    #[error("{path} exists; pass --force to replace it{hint}")]
+    #[error("{path} exists; `force` replaces it{hint}")]
     Exists {
         /// The existing output.
         path: PathBuf,

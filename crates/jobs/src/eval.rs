@@ -183,15 +183,15 @@ impl EvalJob {
         // the evaluation's passes: memory does not grow with the length of the pass.
         type Checked = std::result::Result<(), endoloc_eval::EvalError>;
         let tum = |p: &Path| -> Checked { Ok(TumReader::open(p)?.try_for_each(|r| r.map(drop))?) };
-        tum(&self.gt).context("reading the ground truth (--gt)")?;
-        tum(&self.est).context("reading the estimate (--est)")?;
+        tum(&self.gt).context("reading the ground truth (`gt`)")?;
+        tum(&self.est).context("reading the estimate (`est`)")?;
         if let Some(p) = &frames_path {
             let frames = || -> Checked { FramesCsvReader::open(p)?.try_for_each(|r| r.map(drop)) };
             frames().context("reading frames.csv")?;
         }
         if let Some(p) = &self.gt_zones {
             let zones = || -> Checked { ZonesCsvReader::open(p)?.try_for_each(|r| r.map(drop)) };
-            zones().context("reading the ground-truth zones (--gt-zones)")?;
+            zones().context("reading the ground-truth zones (`gt_zones`)")?;
         }
         let out = self.out_dir();
         // Written next to `out` first, then moved in together: a killed run leaves the

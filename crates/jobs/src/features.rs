@@ -141,12 +141,12 @@ impl FeaturesJob {
             Some("csv") => false,
             Some("json") => true,
             _ => bail!(
-                "--keypoints {}: expected a .csv or .json file name",
+                "`keypoints` {}: expected a .csv or .json file name",
                 path.display()
             ),
         };
         if self.descriptors && !json {
-            bail!("--descriptors needs a .json keypoint file (CSV holds keypoints only)");
+            bail!("`descriptors` needs a .json keypoint file (CSV holds keypoints only)");
         }
         Ok(json)
     }
@@ -169,10 +169,10 @@ impl FeaturesJob {
                 .and_then(|e| e.to_str())
                 .is_some_and(|e| e.eq_ignore_ascii_case("png"))
         {
-            bail!("--overlay {}: expected a .png file name", p.display());
+            bail!("`overlay` {}: expected a .png file name", p.display());
         }
         if self.overlay.is_some() && self.overlay == self.keypoints {
-            bail!("--overlay and --keypoints name the same file; give two files");
+            bail!("`overlay` and `keypoints` name the same file; give two files");
         }
         let outputs: Vec<&PathBuf> = self.overlay.iter().chain(&self.keypoints).collect();
         refuse_existing(&outputs, self.force)?;

@@ -179,7 +179,7 @@ pub fn parse_camera(text: &str, allow_fisheye: bool) -> Result<Camera> {
         .map(|s| {
             s.trim()
                 .parse::<f64>()
-                .map_err(|e| JobError::Invalid(format!("--camera: {s:?} is not a number: {e}")))
+                .map_err(|e| JobError::Invalid(format!("`camera`: {s:?} is not a number: {e}")))
         })
         .collect::<Result<_>>()?;
     let distortion = match (v.len(), allow_fisheye) {
@@ -191,13 +191,13 @@ pub fn parse_camera(text: &str, allow_fisheye: bool) -> Result<Camera> {
             k4: v[9],
         },
         (n, true) => {
-            bail!("--camera: {n} values; expected W,H,FX,FY,CX,CY or W,H,FX,FY,CX,CY,K1,K2,K3,K4")
+            bail!("`camera`: {n} values; expected W,H,FX,FY,CX,CY or W,H,FX,FY,CX,CY,K1,K2,K3,K4")
         }
-        (n, false) => bail!("--camera: {n} values; expected W,H,FX,FY,CX,CY"),
+        (n, false) => bail!("`camera`: {n} values; expected W,H,FX,FY,CX,CY"),
     };
     let size = |x: f64, what: &str| -> Result<u32> {
         if x.fract() != 0.0 || !(1.0..=100_000.0).contains(&x) {
-            bail!("--camera: {what} = {x}; expected a positive whole number of pixels");
+            bail!("`camera`: {what} = {x}; expected a positive whole number of pixels");
         }
         Ok(x as u32)
     };
@@ -211,7 +211,7 @@ pub fn parse_camera(text: &str, allow_fisheye: bool) -> Result<Camera> {
         distortion,
     };
     cam.validate()
-        .map_err(|e| JobError::Invalid(format!("--camera: {e}")))?;
+        .map_err(|e| JobError::Invalid(format!("`camera`: {e}")))?;
     Ok(cam)
 }
 
@@ -258,11 +258,11 @@ impl ImportJob {
                     Some("mm") => Units::Mm,
                     Some("cm") => Units::Cm,
                     Some("m") => Units::M,
-                    other => bail!("endoslam: units (--units) {other:?}; expected mm, cm or m"),
+                    other => bail!("endoslam: `units` {other:?}; expected mm, cm or m"),
                 };
                 let cfg = EndoSlamConfig {
                     camera: camera(false)
-                        .context("endoslam: the camera (--camera W,H,FX,FY,CX,CY) is required")??,
+                        .context("endoslam: the camera (`camera` W,H,FX,FY,CX,CY) is required")??,
                     units,
                     poses: self.poses.clone(),
                     sheet: self.sheet.clone(),
@@ -293,7 +293,7 @@ impl ImportJob {
             read(src).with_context(|| format!("reading {format} recording {}", src.display()))?;
         let sequences = if let Some(spec) = &self.split {
             let parts =
-                parse_split(spec).map_err(|e| JobError::Invalid(format!("--split: {e}")))?;
+                parse_split(spec).map_err(|e| JobError::Invalid(format!("`split`: {e}")))?;
             split_sequence(&main, &parts)?
         } else if let Some(test) = &self.test {
             let t = read(test)
@@ -333,7 +333,7 @@ impl ImportJob {
         .map_err(|e| JobError::Context {
             context: match e {
                 DataError::AlreadyExists { .. } => {
-                    "not replacing it: add --force to overwrite".to_string()
+                    "not replacing it: `force` overwrites it".to_string()
                 }
                 _ => format!("writing {}", self.out.display()),
             },

@@ -178,7 +178,7 @@ pub fn empty_zone_cause(frames: usize, zone: &endoloc_localize::ZoneMap) -> Stri
     if frames < 2 {
         return format!(
             "it holds {frames} training frame (the scope moved fast there), and a map point \
-             needs two views; train with fewer zones or a larger --min-zone-frames"
+             needs two views; train with fewer zones or a larger `min_zone_frames`"
         );
     }
     let per_image = zone.keypoints / images.max(1);
@@ -186,7 +186,7 @@ pub fn empty_zone_cause(frames: usize, zone: &endoloc_localize::ZoneMap) -> Stri
         return format!(
             "its {images} map images (of {frames} training frames) have {} SURF keypoints in \
              all, {per_image} per image: the zone is textureless (or dark, or blurred); a lower \
-             map --threshold finds more",
+             map `threshold` finds more",
             zone.keypoints
         );
     }
@@ -197,7 +197,7 @@ pub fn empty_zone_cause(frames: usize, zone: &endoloc_localize::ZoneMap) -> Stri
         zone.keypoints,
         zone.rejected_tracks,
         if frames < 3 {
-            "; it holds only 2 training frames, train with a larger --min-zone-frames"
+            "; it holds only 2 training frames, train with a larger `min_zone_frames`"
         } else {
             ""
         }

@@ -146,7 +146,7 @@ impl PretrainJob {
     /// failed simulation, training or write.
     pub fn run(&self, progress: &dyn Progress) -> Result<PretrainReport> {
         if self.colons == 0 {
-            bail!("--colons 0: at least one colon is needed");
+            bail!("`colons` 0: at least one colon is needed");
         }
         let weights = self.out.join("weights.safetensors");
         crate::output::refuse_existing(&weights, self.force, "")?;
@@ -155,7 +155,7 @@ impl PretrainJob {
         let size = match &self.size {
             Some(text) => {
                 let s: InputSize = text.parse().map_err(|e| {
-                    JobError::Invalid(format!("--size {text}: expected WIDTHxHEIGHT: {e}"))
+                    JobError::Invalid(format!("`size` {text}: expected WIDTHxHEIGHT: {e}"))
                 })?;
                 Some((s.width, s.height))
             }
@@ -320,7 +320,7 @@ impl fmt::Display for PretrainReport {
         writeln!(f, "wrote     {}", self.weights.display())?;
         write!(
             f,
-            "next      endoloc train --data DATA --pretrained {} --out MODEL",
+            "next      train with `pretrained` {}",
             self.weights.display()
         )
     }

@@ -192,7 +192,7 @@ impl SimulateJob {
             match &mut cfg.colon {
                 ColonSource::Mesh(m) => m.inflation = f,
                 ColonSource::Procedural(_) => {
-                    bail!("--inflation applies to a mesh colon (--gca or --mesh/--path)")
+                    bail!("`inflation` applies to a mesh colon (`gca` or `mesh`)")
                 }
             }
         }
@@ -245,7 +245,7 @@ impl SimulateJob {
     pub fn run(&self, progress: &dyn Progress) -> Result<SimulateReport> {
         let cfg = self.sim_config()?;
         if self.out.as_os_str().is_empty() {
-            bail!("--out is required");
+            bail!("`out` is required");
         }
         let on_event = |event: endoloc_sim::Progress<'_>| match event {
             endoloc_sim::Progress::Stage(stage) => progress.note(&format!("preparing {stage}…")),

@@ -271,7 +271,7 @@ pub fn pair_rule_from(
             PairRule::Track { .. } => rule,
             PairRule::Zone => PairRule::track(),
         },
-        Some(other) => bail!("--pairs {other}: expected `zone` or `track`"),
+        Some(other) => bail!("`pairs` {other}: expected `zone` or `track`"),
     };
     let tuning = pair_frames.is_some() || near.is_some() || zone.is_some();
     match &mut rule {
@@ -286,7 +286,7 @@ pub fn pair_rule_from(
                     .split_once(',')
                     .and_then(|(p, n)| Some((p.trim().parse().ok()?, n.trim().parse().ok()?)));
                 let Some((p, n)) = parsed else {
-                    bail!("--pair-frames {spec}: expected P,N (two frame counts, e.g. 3,10)");
+                    bail!("`pair_frames` {spec}: expected P,N (two frame counts, e.g. 3,10)");
                 };
                 (*positive_frames, *negative_frames) = (p, n);
             }
@@ -299,7 +299,7 @@ pub fn pair_rule_from(
         }
         PairRule::Zone if tuning => {
             bail!(
-                "--pair-frames, --near-fraction and --zone-fraction apply to track pairs (--pairs track)"
+                "`pair_frames`, `near_fraction` and `zone_fraction` apply to track pairs (`pairs` track)"
             )
         }
         PairRule::Zone => {}
@@ -338,7 +338,7 @@ impl TrainJob {
             match &mut cfg.backbone {
                 BackboneConfig::Compact { stem_stride, .. } => *stem_stride = n,
                 other => bail!(
-                    "--stem-stride applies to the compact backbone, not {}",
+                    "`stem_stride` applies to the compact backbone, not {}",
                     other.name()
                 ),
             }
@@ -347,12 +347,12 @@ impl TrainJob {
             let kind: Pooling = match kind.trim().to_ascii_lowercase().as_str() {
                 "average" | "avg" => Pooling::Average,
                 "gem" => Pooling::Gem,
-                other => bail!("--pooling {other}: expected `average` or `gem`"),
+                other => bail!("`pooling` {other}: expected `average` or `gem`"),
             };
             match &mut cfg.backbone {
                 BackboneConfig::Compact { pooling, .. } => *pooling = kind,
                 other => bail!(
-                    "--pooling applies to the compact backbone, not {}",
+                    "`pooling` applies to the compact backbone, not {}",
                     other.name()
                 ),
             }
@@ -369,7 +369,7 @@ impl TrainJob {
         }
         if let Some(t) = args.tilt_deg {
             if !(0.0..=45.0).contains(&t) {
-                bail!("--tilt-deg {t}: expected 0 to 45 degrees");
+                bail!("`tilt_deg` {t}: expected 0 to 45 degrees");
             }
             cfg.augment.tilt_deg = t;
         }
@@ -446,7 +446,7 @@ impl TrainJob {
         let mut cfg = cfg;
         for name in &args.also_seq {
             if *name == args.seq {
-                bail!("--also-seq {name}: that is the training sequence itself");
+                bail!("`also_seq` {name}: that is the training sequence itself");
             }
             cfg.extra_sequences.push(dataset.sequence(name)?.dir);
         }
@@ -657,14 +657,14 @@ mod tests {
         })
         .unwrap_err()
         .to_string();
-        assert!(e.contains("--pooling max") && e.contains("gem"), "{e}");
+        assert!(e.contains("`pooling` max") && e.contains("gem"), "{e}");
         let e = config(TrainJob {
             tilt_deg: Some(90.0),
             ..job()
         })
         .unwrap_err()
         .to_string();
-        assert!(e.contains("--tilt-deg 90"), "{e}");
+        assert!(e.contains("`tilt_deg` 90"), "{e}");
         let e = config(TrainJob {
             backbone: "googlenet".into(),
             pooling: Some("gem".into()),
@@ -699,16 +699,16 @@ mod tests {
         })
         .unwrap_err()
         .to_string();
-        assert!(e.contains("--pairs frames"), "{e}");
+        assert!(e.contains("`pairs` frames"), "{e}");
         let e = config(TrainJob {
             pair_frames: Some("2,8".into()),
             ..job()
         })
         .unwrap_err()
         .to_string();
-        assert!(e.contains("--pairs track"), "{e}");
+        assert!(e.contains("`pairs` track"), "{e}");
         let e = config(track(Some("8"), None)).unwrap_err().to_string();
-        assert!(e.contains("--pair-frames 8"), "{e}");
+        assert!(e.contains("`pair_frames` 8"), "{e}");
         let e = config(track(Some("8,4"), None)).unwrap_err().to_string();
         assert!(e.contains("negative_frames 4 > positive_frames"), "{e}");
     }

@@ -329,7 +329,7 @@ impl ViewJob {
         crate::output::refuse_existing(&out, self.force, "")?;
         if self.thumb_width < 8 || self.thumb_width > 2048 {
             bail!(
-                "thumb_width (--thumb-width) must be 8 to 2048 pixels, not {}",
+                "`thumb_width` must be 8 to 2048 pixels, not {}",
                 self.thumb_width
             );
         }
@@ -338,7 +338,7 @@ impl ViewJob {
         let traj_path = run.join("trajectory.txt");
         if !run.is_dir() || !frames_path.is_file() || !traj_path.is_file() {
             bail!(
-                "{} is not a localization run folder: it should contain frames.csv and trajectory.txt (and localize.toml), as `endoloc localize --out DIR` writes them",
+                "{} is not a localization run folder: it should contain frames.csv and trajectory.txt (and localize.toml), as the localize job writes them",
                 run.display()
             );
         }
@@ -351,7 +351,7 @@ impl ViewJob {
             (Some(s), _) => s.clone(),
             (None, Some(l)) => resolve(&l.seq, run),
             (None, None) => bail!(
-                "{} has no {LOCALIZE_FILE} naming the test sequence; give it (--seq DIR)",
+                "{} has no {LOCALIZE_FILE} naming the test sequence; give it (`seq`)",
                 run.display()
             ),
         };
@@ -483,7 +483,7 @@ impl ViewJob {
                 ));
             }
         } else {
-            missing.push("training pass and map: the run names no model (--model DIR)".into());
+            missing.push("training pass and map: the run names no model (`model`)".into());
         }
         if zone_points.len() < zones_count {
             let end = points.len() / 3;

@@ -161,7 +161,7 @@ pub fn load_map(dir: &Path) -> Result<Map, LocalizeError> {
             Ok(pair) => {
                 tracing::warn!(
                     "{}: map.bin is from an interrupted `endoloc map`; using the earlier map \
-                     ({PREV_BIN}); run endoloc map --force to build the new one",
+                     ({PREV_BIN}); rebuild it with the map job and `force`",
                     dir.display()
                 );
                 pair
@@ -189,7 +189,7 @@ fn read_pair(dir: &Path, toml_name: &str, bin_name: &str) -> Result<(MapMeta, Ve
     let text = std::fs::read_to_string(&toml_path).map_err(|e| {
         PairError::Other(file_err(
             &toml_path,
-            format!("{e} (build the map first: endoloc map --model …)"),
+            format!("{e} (build the map first with the map job)"),
         ))
     })?;
     let meta: MapMeta =
@@ -206,8 +206,7 @@ fn read_pair(dir: &Path, toml_name: &str, bin_name: &str) -> Result<(MapMeta, Ve
                 &bin_path,
                 format!(
                     "fingerprint {found}, but map.toml records {recorded}: the two files come \
-                     from different builds (an interrupted `endoloc map`?); rebuild the map with \
-                     endoloc map --force"
+                     from different builds (an interrupted map job?); rebuild the map with `force`"
                 ),
             )));
         }

@@ -50,7 +50,7 @@ pub enum NetError {
         message: String,
     },
     /// The output exists and overwriting was not asked for.
-    #[error("{}: already exists (pass --force to replace it, or choose another path)", path.display())]
+    #[error("{}: already exists (`force` replaces it, or choose another path)", path.display())]
     AlreadyExists {
         /// The existing path.
         path: PathBuf,

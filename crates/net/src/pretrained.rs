@@ -15,8 +15,8 @@
 //! `builtin` ([`BUILTIN`]) was pretrained with zone pairs on four colons (seeds 101–404),
 //! `builtin-track` from it with track pairs on those and four more (seeds 505–808),
 //! `builtin-joint` from that with track pairs on sixteen colons at once, then sixteen more
-//! (`endoloc pretrain --joint`; 32 colons in all): indexing a pass with it and no training
-//! (`endoloc train --pretrained builtin-joint --epochs 0`) is the best single model on the
+//! (pretrain with `joint`; 32 colons in all): indexing a pass with it and no training
+//! (train with `pretrained` builtin-joint, `epochs` 0) is the best single model on the
 //! `paper` preset. They fit the default compact backbone only; any other network is refused with the architecture they
 //! need.
 
@@ -72,14 +72,14 @@ pub const BUILTINS: &[BuiltinWeights] = &[
     BuiltinWeights {
         name: "builtin-track",
         about: "`builtin`, then track pairs (near fraction 0.1) on the same four colons and \
-                four more; the start for `--pairs track --near-fraction 0.1`",
+                four more; the start for track pairs (`pairs` track, `near_fraction` 0.1)",
         bytes: include_bytes!("../weights/compact-sim8-track.safetensors"),
     },
     BuiltinWeights {
         name: "builtin-joint",
         about: "`builtin-track`, then track pairs on sixteen colons at once and sixteen more \
-                (`pretrain --joint`, 32 colons in all); used as they are: \
-                `train --pretrained builtin-joint --epochs 0`",
+                (pretrain with `joint`, 32 colons in all); used as they are: \
+                train with `pretrained` builtin-joint, `epochs` 0",
         bytes: include_bytes!("../weights/compact-sim32-joint.safetensors"),
     },
 ];

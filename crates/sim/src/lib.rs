@@ -41,7 +41,7 @@ pub enum SimError {
     #[error(
         "the lumen is too narrow at {s_mm:.0} mm along the mid-line (frame {frame}): the lens can \
          be kept only {achieved_mm:.2} mm from the wall, {required_mm} mm was asked; inflate the \
-         colon (--inflation 1.5) or lower the clearance (--clearance)"
+         colon (`inflation` 1.5) or lower the clearance (`clearance`)"
     )]
     Clearance {
         /// Frame of the pass.

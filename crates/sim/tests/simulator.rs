@@ -349,7 +349,7 @@ fn a_lumen_too_narrow_for_the_clearance_is_a_clear_error() {
         .unwrap_err()
         .to_string();
     assert!(
-        err.contains("too narrow") && err.contains("--clearance"),
+        err.contains("too narrow") && err.contains("`clearance`"),
         "{err}"
     );
 }

@@ -115,7 +115,7 @@ fn find_pose_file(src: &Path) -> Result<PathBuf, DataError> {
                 return Err(DataError::invalid(
                     &dir,
                     format!(
-                        "{} pose files ({}); choose one with --poses",
+                        "{} pose files ({}); choose one with `poses`",
                         many.len(),
                         many.iter()
                             .filter_map(|p| p.file_name())
@@ -129,7 +129,7 @@ fn find_pose_file(src: &Path) -> Result<PathBuf, DataError> {
     }
     Err(DataError::invalid(
         src,
-        "no pose file (.csv or .xlsx) in Poses/ or here; give one with --poses",
+        "no pose file (.csv or .xlsx) in Poses/ or here; give one with `poses`",
     ))
 }
 

@@ -326,7 +326,7 @@ fn layout(src: &Path, sequence: Option<&str>) -> Result<(PathBuf, PathBuf, PathB
                         return Err(DataError::invalid(
                             src,
                             format!(
-                                "this is the SimCol3D dataset folder; expected one colon folder: {} (e.g. {} with --sequence S1)",
+                                "this is the SimCol3D dataset folder; expected one colon folder: {} (e.g. {} with `sequence` S1)",
                                 colons.join(", "),
                                 src.join(&colons[0]).display()
                             ),
@@ -341,7 +341,7 @@ fn layout(src: &Path, sequence: Option<&str>) -> Result<(PathBuf, PathBuf, PathB
                     return Err(DataError::invalid(
                         src,
                         format!(
-                            "several trajectories ({}); choose one (e.g. --sequence {})",
+                            "several trajectories ({}); choose one (e.g. `sequence` {})",
                             many.join(", "),
                             many[0]
                         ),
@@ -470,7 +470,7 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
             return Err(DataError::invalid(
                 &frames_dir,
                 format!(
-                    "{} has no depth map (Depth_{n:04}.png) while {} other frames have one; expected depth for every frame or none (--no-depth skips depth)",
+                    "{} has no depth map (Depth_{n:04}.png) while {} other frames have one; expected depth for every frame or none (`no_depth` skips depth)",
                     p.display(),
                     depth.len()
                 ),

@@ -385,11 +385,11 @@ impl BenchmarkJob {
     pub fn run(&self, progress: &dyn Progress) -> Result<BenchmarkReport> {
         let colons = self.colons();
         if colons.is_empty() {
-            bail!("no colons: give --seeds and/or --gca");
+            bail!("no colons: give `seeds` and/or `gca`");
         }
         if let Some(s) = self.dev_seeds.iter().find(|s| self.seeds.contains(s)) {
             bail!(
-                "seed {s} is in both --seeds and --dev-seeds; a development colon cannot also \
+                "seed {s} is in both `seeds` and `dev_seeds`; a development colon cannot also \
                  speak for unseen ones"
             );
         }
@@ -414,7 +414,7 @@ impl BenchmarkJob {
                 let c = colons.iter().find(|c| &c.name == name).with_context(|| {
                     let names: Vec<&str> = colons.iter().map(|c| c.name.as_str()).collect();
                     format!(
-                        "--colon {name}: not a colon of this benchmark; expected one of {}",
+                        "`colon` {name}: not a colon of this benchmark; expected one of {}",
                         names.join(", ")
                     )
                 })?;
@@ -456,7 +456,7 @@ impl BenchmarkJob {
         }
         if rows.is_empty() {
             bail!(
-                "no colon of {} is finished; run the colons first (see --print-jobs)",
+                "no colon of {} is finished; run the colons first (see `print_jobs`)",
                 self.out.display()
             );
         }

@@ -687,7 +687,7 @@ pub(super) fn prepare_out(out: &Path, marker: &str, force: bool) -> Result<()> {
             .unwrap_or(false);
         if !is_same && !empty {
             bail!(
-                "{} exists and is not a `{}` experiment folder; choose another --out or pass --force",
+                "{} exists and is not a `{}` experiment folder; choose another `out` or set `force`",
                 out.display(),
                 marker.trim_end_matches(".toml")
             );

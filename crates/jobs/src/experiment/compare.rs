@@ -77,10 +77,10 @@ pub enum Method {
     /// The paper's rule: top zone → median pose → SURF matching → Gauss-Newton.
     EndolocPaper,
     /// Ours, trying the 3 best-scoring zones until one registers; registrations not confirmed
-    /// against the map (`localize --no-confirm`).
+    /// against the map (the localize job with `confirm` off).
     Endoloc,
     /// Ours live: frames in order, the causal track filter, registration from the last pose;
-    /// registrations not confirmed against the map (`localize --live --no-confirm`).
+    /// registrations not confirmed against the map (the localize job, `live`, `confirm` off).
     EndolocLive,
     /// Ours per frame, every registration confirmed against the map, as `endoloc localize`
     /// runs by default.
@@ -161,9 +161,9 @@ impl Method {
     fn description(self) -> &'static str {
         match self {
             Method::EndolocPaper => "two-step, top zone only (the paper's rule)",
-            Method::Endoloc => "two-step, up to 3 candidate zones, unconfirmed (--no-confirm)",
+            Method::Endoloc => "two-step, up to 3 candidate zones, unconfirmed (`confirm` off)",
             Method::EndolocLive => {
-                "two-step, live: track filter, motion model, unconfirmed (--no-confirm)"
+                "two-step, live: track filter, motion model, unconfirmed (`confirm` off)"
             }
             Method::EndolocConfirm => {
                 "two-step, 3 candidates, registrations confirmed by the map (the default)"

@@ -257,11 +257,11 @@ impl ZoneSweepJob {
             .split_once(':')
             .and_then(|(n, r)| Some((n.trim().parse().ok()?, r.trim().parse().ok()?)));
         let Some(cell) = parsed else {
-            bail!("--cell {text:?}: expected COUNT:RUN, e.g. 50:3");
+            bail!("`cell` {text:?}: expected COUNT:RUN, e.g. 50:3");
         };
         if !self.grid().contains(&cell) {
             bail!(
-                "--cell {text}: not a cell of this sweep; expected a count of {} and a run \
+                "`cell` {text}: not a cell of this sweep; expected a count of {} and a run \
                  below {}",
                 self.counts()
                     .iter()
@@ -283,7 +283,7 @@ impl ZoneSweepJob {
         let args = self;
         if args.step == 0 || args.from == 0 || args.from > args.to || args.runs == 0 {
             bail!(
-                "--from {} --to {} --step {} --runs {}: need 0 < from ≤ to, step > 0, runs > 0",
+                "`from` {}, `to` {}, `step` {}, `runs` {}: need 0 < from ≤ to, step > 0, runs > 0",
                 args.from,
                 args.to,
                 args.step,
@@ -291,12 +291,12 @@ impl ZoneSweepJob {
             );
         }
         if args.epochs == 0 && args.pretrained.is_none() {
-            bail!("--epochs 0 needs --pretrained (start weights to index the pass with)");
+            bail!("`epochs` 0 needs `pretrained` (start weights to index the pass with)");
         }
         if args.epochs == 0 && args.runs > 1 {
             bail!(
-                "--epochs 0 --runs {}: without training every run indexes the pass with the same \
-                 weights and gives the same figures; use --runs 1",
+                "`epochs` 0, `runs` {}: without training every run indexes the pass with the same \
+                 weights and gives the same figures; use `runs` 1",
                 args.runs
             );
         }
@@ -373,7 +373,7 @@ impl ZoneSweepJob {
             .collect();
         if rows.is_empty() {
             bail!(
-                "no cell of {} is finished; run the cells first (see --print-jobs)",
+                "no cell of {} is finished; run the cells first (see `print_jobs`)",
                 args.out.display()
             );
         }

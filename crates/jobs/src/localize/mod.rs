@@ -334,7 +334,7 @@ impl LocalizeJob {
         let model = self
             .model
             .as_deref()
-            .context("a model folder is required (--model)")?;
+            .context("a model folder is required (`model`)")?;
         let classifier = load_classifier(model, &self.also_model, "cpu")?;
         let map = load_map(model)?;
         let mut cfg = self.localizer_config(&map.config.surf);
@@ -370,7 +370,7 @@ impl LocalizeJob {
         }
         if self.method != LocalizeMethod::Endoloc {
             if !self.also_model.is_empty() {
-                bail!("also_model (--also-model) joins zone models for the endoloc method only");
+                bail!("`also_model` joins zone models for the endoloc method only");
             }
             return self.run_baseline(progress);
         }
@@ -513,7 +513,7 @@ impl LocalizeJob {
         let model = || {
             self.model
                 .as_deref()
-                .with_context(|| format!("method {name} needs a model folder (--model)"))
+                .with_context(|| format!("method {name} needs a model folder (`model`)"))
         };
         let classify =
             |dir: &Path| -> Result<(ZoneClassifier, Vec<endoloc_net::ZonePrediction>, f64)> {
@@ -549,9 +549,9 @@ impl LocalizeJob {
                 let reg = self
                     .regressor
                     .as_deref()
-                    .context("method offsetnet needs the OffsetNet model folder (--regressor)")?;
+                    .context("method offsetnet needs the OffsetNet model folder (`regressor`)")?;
                 let refs = self.reference_seq.as_deref().context(
-                    "method offsetnet needs the training sequence folder (--reference-seq)",
+                    "method offsetnet needs the training sequence folder (`reference_seq`)",
                 )?;
                 let train = Sequence::open(refs)?;
                 let (_, preds, ms) = classify(model()?)?;

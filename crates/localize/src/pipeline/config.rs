@@ -84,7 +84,7 @@ pub struct LocalizerConfig {
     /// Every registration is confirmed against all map points near its pose and refined again
     /// from them ([`confirm`](mod@crate::confirm); beyond the paper). Off in this
     /// configuration's default, the paper's pipeline; [`ConfirmConfig::standard`] turns it on,
-    /// as `endoloc localize` does unless told `--no-confirm`.
+    /// as `endoloc localize` does unless `confirm` is off.
     pub confirm: ConfirmConfig,
 }
 

@@ -93,7 +93,7 @@ impl Localizer {
             return Err(LocalizeError::Mismatch(format!(
                 "the map in {} was built for zones with fingerprint {built_for}, but the \
                  model's zones.csv has fingerprint {model} (a map copied from another model?): \
-                 rebuild it with endoloc map --model {} --data DATASET --force",
+                 rebuild it with the map job (`model` {}, `force`)",
                 classifier.dir().display(),
                 classifier.dir().display()
             )));
@@ -110,7 +110,7 @@ impl Localizer {
                 && !(scale_px.is_finite() && scale_px > 0.0)
             {
                 return Err(LocalizeError::Config(format!(
-                    "refine {name} scale {scale_px} px (localize --polish-px for the polish); \
+                    "refine {name} scale {scale_px} px (`polish_px` for the polish); \
                      expected a finite value > 0, or 0 for least squares"
                 )));
             }

@@ -76,7 +76,7 @@ pub(crate) fn resume(
         .map_err(|e| NetError::parse(&state_path, e.line(), e.to_string()))?;
     if st.config.backbone != cfg.backbone || st.frames != frames || st.zones != zones {
         return Err(NetError::Config(format!(
-            "{}: the checkpoint was made with another backbone, frame count or zoning ({} frames, {} zones); start over with --force",
+            "{}: the checkpoint was made with another backbone, frame count or zoning ({} frames, {} zones); start over with `force`",
             dir.display(),
             st.frames,
             st.zones
@@ -210,7 +210,7 @@ impl TrainTarget {
                 std::fs::remove_dir_all(&staging).map_err(|e| NetError::io(&staging, e))?;
             } else {
                 return Err(NetError::Config(format!(
-                    "{} holds an interrupted training run: pass --resume to continue it or --force to start over",
+                    "{} holds an interrupted training run: `resume` continues it, `force` starts over",
                     staging.display()
                 )));
             }
