@@ -19,6 +19,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::bail;
+use crate::choice::{Device, ZoneFilter};
 use crate::error::Result;
 use crate::localize::load_classifier;
 use crate::progress::{Progress, bar};
@@ -52,8 +53,11 @@ pub struct ClassifyJob {
     pub seq: PathBuf,
     /// Which zone the `zone` column holds: none (raw), forward, viterbi, track (causal, as
     /// live) or smooth. All are always in the CSV.
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = ClassifyJob::default().filter))]
-    pub filter: String,
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_enum, default_value_t = ClassifyJob::default().filter)
+    )]
+    pub filter: ZoneFilter,
     /// Write the per-frame CSV here (default: the report holds it; the command line prints
     /// it on stdout).
     #[cfg_attr(feature = "cli", arg(long, value_name = "CSV"))]
@@ -108,8 +112,11 @@ pub struct ClassifyJob {
     )]
     pub verify: usize,
     /// Compute device: cpu, cuda, wgpu (GPU builds only) or auto.
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = ClassifyJob::default().device))]
-    pub device: String,
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_enum, default_value_t = ClassifyJob::default().device)
+    )]
+    pub device: Device,
     /// Replace `out`, `scores` and `descriptors` files that already exist.
     #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
@@ -121,7 +128,7 @@ impl Default for ClassifyJob {
             model: PathBuf::new(),
             also_model: Vec::new(),
             seq: PathBuf::new(),
-            filter: "track".into(),
+            filter: ZoneFilter::Track,
             out: None,
             scores: None,
             descriptors: None,
@@ -136,7 +143,7 @@ impl Default for ClassifyJob {
             track_lag: 0,
             track_jump: None,
             verify: 0,
-            device: "cpu".into(),
+            device: Device::Cpu,
             force: false,
         }
     }
@@ -282,17 +289,10 @@ impl ClassifyJob {
     /// Classifies, filters, verifies and writes.
     ///
     /// # Errors
-    /// An unknown filter, outputs that name one file or exist without `force`, a model that
+    /// Outputs that name one file or exist without `force`, a model that
     /// cannot be loaded (or has no map with `verify`), a model for another camera, an
     /// unreadable image, or a failed write.
     pub fn run(&self, progress: &dyn Progress) -> Result<ClassifyReport> {
-        let filter = self.filter.trim().to_ascii_lowercase();
-        if !["none", "raw", "forward", "viterbi", "track", "smooth"].contains(&filter.as_str()) {
-            bail!(
-                "`filter` {}: expected none, forward, viterbi, track or smooth",
-                self.filter
-            );
-        }
         // Refuse before the work, not after it.
         let outputs: Vec<&PathBuf> = self
             .out
@@ -304,7 +304,7 @@ impl ClassifyJob {
             bail!("`out`, `scores` and `descriptors` must name different files");
         }
         refuse_existing(&outputs, self.force)?;
-        let loaded = load_classifier(&self.model, &self.also_model, &self.device)?;
+        let loaded = load_classifier(&self.model, &self.also_model, self.device)?;
         let (plain, localizer) = if self.verify > 0 {
             let map = load_map(&self.model)?;
             let cfg = LocalizerConfig {
@@ -406,12 +406,12 @@ impl ClassifyJob {
                 tracked[i].zone,
                 smoothed[i].zone,
             ];
-            let chosen = match filter.as_str() {
-                "forward" => zones[1],
-                "viterbi" => zones[2],
-                "track" => zones[3],
-                "smooth" => zones[4],
-                _ => zones[0],
+            let chosen = match self.filter {
+                ZoneFilter::None => zones[0],
+                ZoneFilter::Forward => zones[1],
+                ZoneFilter::Viterbi => zones[2],
+                ZoneFilter::Track => zones[3],
+                ZoneFilter::Smooth => zones[4],
             };
             let t = truth[i];
             let _ = write!(

@@ -9,7 +9,8 @@
 //! derives clap's `Args` from those fields, so the command line parses its arguments straight
 //! into the job (`#[command(flatten)]`), runs it and prints the report; the Python module
 //! reads its keyword arguments from the same derive; `endoloc run` reads the same jobs from a
-//! TOML file; the demo and the experiments compose them.
+//! TOML file; the demo composes them, and so do the experiments (`endoloc-experiments`, the
+//! crate above this one).
 //!
 //! ```no_run
 //! use endoloc_jobs::{Silent, MapJob};
@@ -27,10 +28,10 @@ pub mod progress;
 
 pub mod baselines;
 pub mod bench;
+pub mod choice;
 pub mod classify;
 pub mod dataset;
 pub mod eval;
-pub mod experiment;
 pub mod features;
 pub mod import;
 pub mod localize;

@@ -337,7 +337,7 @@ impl DemoJob {
                 data: p("data"),
                 zones: ZoneSpec::Uniform(self.zones),
                 out: p("model"),
-                schedule: "fast".into(),
+                schedule: crate::choice::SchedulePreset::Fast,
                 epochs: Some(self.epochs),
                 seed: self.seed,
                 ..TrainJob::default()
@@ -469,7 +469,7 @@ impl TrainJob {
             .arg_if("schedule", &self.schedule, &d.schedule)
             .opt("epochs", self.epochs)
             .arg_if("seed", &self.seed, &d.seed)
-            .opt("pairs", self.pairs.as_deref())
+            .opt("pairs", self.pairs)
             .opt("pretrained", self.pretrained.as_deref().map(show))
             .flag("resume", self.resume)
             .flag("force", self.force)
@@ -567,7 +567,7 @@ mod tests {
     fn run_tables_are_the_stage_jobs() {
         let job =
             RunJob::from_toml("out = \"o\"\ndata = \"d\"\n[train]\npairs = \"track\"\n").unwrap();
-        assert_eq!(job.train.pairs.as_deref(), Some("track"));
+        assert_eq!(job.train.pairs, Some(crate::choice::Pairs::Track));
         let job = RunJob::from_toml("out = \"o\"\ndata = \"d\"\n").unwrap();
         assert_eq!(job.train, TrainJob::default());
         assert_eq!(job.map, MapJob::default());

@@ -10,6 +10,7 @@ use endoloc_net::{InputSize, UniformBy, ZoneConfig, ZoneSpec};
 use serde::{Deserialize, Serialize};
 
 use crate::bail;
+use crate::choice::{Device, Pairs};
 use crate::error::{Context, JobError, Result};
 use crate::progress::Progress;
 use crate::simulate::{SimulateJob, SimulateReport};
@@ -47,8 +48,8 @@ pub struct PretrainJob {
     pub epochs: Option<usize>,
     /// Training pairs of each colon: `zone` (default) or `track` (see the train job's
     /// `pairs`; the test pass's frames then pair by their place along the training pass).
-    #[cfg_attr(feature = "cli", arg(long, value_name = "RULE"))]
-    pub pairs: Option<String>,
+    #[cfg_attr(feature = "cli", arg(long, value_enum, value_name = "RULE"))]
+    pub pairs: Option<Pairs>,
     /// Track pairs: fraction of negatives near the positive (see the train job's
     /// `near_fraction`), e.g. 0.1.
     #[cfg_attr(feature = "cli", arg(long, value_name = "F"))]
@@ -80,8 +81,11 @@ pub struct PretrainJob {
     #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
     /// Compute device: cpu, cuda, wgpu (GPU builds only) or auto (BURN_DEVICE, else cpu).
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = PretrainJob::default().device))]
-    pub device: String,
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_enum, default_value_t = PretrainJob::default().device)
+    )]
+    pub device: Device,
 }
 
 impl Default for PretrainJob {
@@ -102,7 +106,7 @@ impl Default for PretrainJob {
             fps: None,
             size: None,
             force: false,
-            device: "cpu".into(),
+            device: Device::Cpu,
         }
     }
 }
@@ -204,10 +208,10 @@ impl PretrainJob {
                         force: true,
                         pretrained: previous.clone(),
                         epochs: self.epochs,
-                        pairs: self.pairs.clone(),
+                        pairs: self.pairs,
                         near_fraction: self.near_fraction,
                         pair_frames: self.pair_frames.clone(),
-                        device: self.device.clone(),
+                        device: self.device,
                         ..TrainJob::default()
                     };
                     colon.trained = Some(train.run(progress)?);
@@ -256,11 +260,11 @@ impl PretrainJob {
             .collect::<Result<Vec<_>>>()?;
         let mut cfg = TrainConfig {
             pretrained: self.pretrained.as_ref().map(PathBuf::from),
-            device: self.device.clone(),
+            device: self.device.name().to_string(),
             ..TrainConfig::default()
         };
         cfg.pairs = pair_rule_from(
-            self.pairs.as_deref(),
+            self.pairs,
             self.pair_frames.as_deref(),
             self.near_fraction,
             None,

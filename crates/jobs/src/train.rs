@@ -7,12 +7,13 @@ use std::time::Instant;
 
 use endoloc_data::Dataset;
 use endoloc_net::backbone::{BackboneConfig, Pooling};
-use endoloc_net::train::{Phase, Schedule, TrainConfig, TrainProgress, TrainTarget, train};
+use endoloc_net::train::{Phase, TrainConfig, TrainProgress, TrainTarget, train};
 use endoloc_net::{AugmentConfig, PairRule, UniformBy, ZoneConfig, ZoneSpec, ZoneTable};
 use serde::{Deserialize, Serialize};
 
 use crate::bail;
 use crate::baselines::{Regressor, RegressorSettings, train_regressor};
+use crate::choice::{Backbone, Device, Pairs, SchedulePreset};
 use crate::error::{Context, JobError, Result};
 use crate::progress::Progress;
 
@@ -62,7 +63,7 @@ pub struct TrainJob {
     pub zones: ZoneSpec,
     /// Uniform zones of equal `arc-length` (default) or equal `frames`.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().uniform_by))]
-    pub uniform_by: String,
+    pub uniform_by: UniformBy,
     /// Fewest training frames a uniform zone holds: a zone over a fast stretch of the pass is
     /// widened into its neighbours until it has this many (its map needs several views).
     #[cfg_attr(
@@ -81,8 +82,11 @@ pub struct TrainJob {
     pub resume: bool,
     /// Backbone: `compact` (CPU default, 256x192 input, stride-4 first layer) or `googlenet`
     /// (the paper's, 224x224x1; for a GPU).
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().backbone))]
-    pub backbone: String,
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_enum, default_value_t = TrainJob::default().backbone)
+    )]
+    pub backbone: Backbone,
     /// Network input size WIDTHxHEIGHT (default: the backbone's, 256x192 for compact).
     #[cfg_attr(feature = "cli", arg(long, value_name = "WxH"))]
     pub input: Option<String>,
@@ -93,7 +97,7 @@ pub struct TrainJob {
     /// Global pooling of the compact backbone: `average` (default) or `gem` (generalised mean,
     /// p = 3).
     #[cfg_attr(feature = "cli", arg(long, value_name = "KIND"))]
-    pub pooling: Option<String>,
+    pub pooling: Option<Pooling>,
     /// Augment with the view of the scope turned by up to ±DEG about its x and y axes (an
     /// exact homography; default from the augmentation settings).
     #[cfg_attr(feature = "cli", arg(long, value_name = "DEG"))]
@@ -102,8 +106,8 @@ pub struct TrainJob {
     /// `track` (by distance along the training pass: positives within 3 frames, negatives 10
     /// or more apart, half of them within 20; see `pair_frames`). Track pairs never give
     /// opposite labels to neighbouring frames across a zone border.
-    #[cfg_attr(feature = "cli", arg(long, value_name = "RULE"))]
-    pub pairs: Option<String>,
+    #[cfg_attr(feature = "cli", arg(long, value_enum, value_name = "RULE"))]
+    pub pairs: Option<Pairs>,
     /// Track pairs: largest positive and smallest negative frame gap, `P,N` (default 3,10).
     #[cfg_attr(feature = "cli", arg(long, value_name = "P,N"))]
     pub pair_frames: Option<String>,
@@ -124,8 +128,11 @@ pub struct TrainJob {
     pub database_smoothing: Option<f64>,
     /// Schedule preset: `fast` (150 epochs of 128+128 pairs, batch 64 pairs sharing images,
     /// Adam 1e-3 → 1e-4) or `paper` (500 epochs of 128+128 pairs, batch 128, Adam 1e-3).
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().schedule))]
-    pub schedule: String,
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_enum, default_value_t = TrainJob::default().schedule)
+    )]
+    pub schedule: SchedulePreset,
     /// Training settings from a TOML file (fields of TrainConfig); the options below override
     /// it.
     #[cfg_attr(feature = "cli", arg(long, value_name = "TOML"))]
@@ -147,8 +154,11 @@ pub struct TrainJob {
     #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().seed))]
     pub seed: u64,
     /// Compute device: cpu, cuda, wgpu (GPU builds only) or auto (BURN_DEVICE, else cpu).
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = TrainJob::default().device))]
-    pub device: String,
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_enum, default_value_t = TrainJob::default().device)
+    )]
+    pub device: Device,
     /// Monitor validation accuracy on this sequence folder (e.g. a second pass through the
     /// same colon; truth zones from its poses) instead of held-out training frames.
     #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
@@ -176,12 +186,12 @@ impl Default for TrainJob {
             seq: "train".into(),
             also_seq: Vec::new(),
             zones: ZoneSpec::default(),
-            uniform_by: "arc-length".into(),
+            uniform_by: UniformBy::ArcLength,
             min_zone_frames: endoloc_net::DEFAULT_MIN_ZONE_FRAMES,
             out: PathBuf::new(),
             force: false,
             resume: false,
-            backbone: cfg.backbone.name().to_string(),
+            backbone: Backbone::default(),
             input: None,
             stem_stride: None,
             pooling: None,
@@ -192,14 +202,14 @@ impl Default for TrainJob {
             zone_fraction: None,
             whitening: None,
             database_smoothing: None,
-            schedule: "fast".into(),
+            schedule: SchedulePreset::default(),
             config: None,
             epochs: None,
             lr: None,
             batch_pairs: None,
             no_augment: false,
             seed: cfg.seed,
-            device: cfg.device.clone(),
+            device: Device::default(),
             val_seq: None,
             pretrained: None,
         }
@@ -242,36 +252,24 @@ pub struct SiameseReport {
     pub seconds: f64,
 }
 
-/// The zoning of `spec`: uniform zones cut `by` `arc-length` or `frames`, at least
-/// `min_frames` frames each, or anatomical zones.
+/// `pairs`, `pair_frames` (`P,N`), `near_fraction` and `zone_fraction` applied to `rule`.
 ///
 /// # Errors
-/// A `by` that is neither.
-pub fn zone_config(spec: ZoneSpec, by: &str, min_frames: usize) -> Result<ZoneConfig> {
-    Ok(spec.config(by.parse::<UniformBy>()?, min_frames))
-}
-
-/// `--pairs RULE`, `--pair-frames P,N`, `--near-fraction F` and `--zone-fraction F` applied
-/// to `rule`.
-///
-/// # Errors
-/// A rule name that is not `zone`/`track`, malformed frame gaps, tuning of zone pairs, or a
-/// rule that does not validate.
+/// Malformed frame gaps, tuning of zone pairs, or a rule that does not validate.
 pub fn pair_rule_from(
-    pairs: Option<&str>,
+    pairs: Option<Pairs>,
     pair_frames: Option<&str>,
     near: Option<f32>,
     zone: Option<f32>,
     rule: PairRule,
 ) -> Result<PairRule> {
-    let mut rule = match pairs.map(|s| s.trim().to_ascii_lowercase()) {
+    let mut rule = match pairs {
         None => rule,
-        Some(s) if s == "zone" => PairRule::Zone,
-        Some(s) if s == "track" => match rule {
+        Some(Pairs::Zone) => PairRule::Zone,
+        Some(Pairs::Track) => match rule {
             PairRule::Track { .. } => rule,
             PairRule::Zone => PairRule::track(),
         },
-        Some(other) => bail!("`pairs` {other}: expected `zone` or `track`"),
     };
     let tuning = pair_frames.is_some() || near.is_some() || zone.is_some();
     match &mut rule {
@@ -326,8 +324,8 @@ impl TrainJob {
                 })?
             }
             None => TrainConfig {
-                backbone: BackboneConfig::from_name(&args.backbone)?,
-                schedule: Schedule::from_name(&args.schedule)?,
+                backbone: args.backbone.config(),
+                schedule: args.schedule.schedule(),
                 ..TrainConfig::default()
             },
         };
@@ -343,12 +341,7 @@ impl TrainJob {
                 ),
             }
         }
-        if let Some(kind) = &args.pooling {
-            let kind: Pooling = match kind.trim().to_ascii_lowercase().as_str() {
-                "average" | "avg" => Pooling::Average,
-                "gem" => Pooling::Gem,
-                other => bail!("`pooling` {other}: expected `average` or `gem`"),
-            };
+        if let Some(kind) = args.pooling {
             match &mut cfg.backbone {
                 BackboneConfig::Compact { pooling, .. } => *pooling = kind,
                 other => bail!(
@@ -377,7 +370,7 @@ impl TrainJob {
             cfg.augment = AugmentConfig::off();
         }
         cfg.pairs = pair_rule_from(
-            args.pairs.as_deref(),
+            args.pairs,
             args.pair_frames.as_deref(),
             args.near_fraction,
             args.zone_fraction,
@@ -390,7 +383,7 @@ impl TrainJob {
             cfg.database_smoothing_mm = mm;
         }
         cfg.seed = args.seed;
-        cfg.device = args.device.clone();
+        cfg.device = args.device.name().to_string();
         if args.val_seq.is_some() {
             cfg.validation.sequence = args.val_seq.clone();
         }
@@ -435,7 +428,7 @@ impl TrainJob {
             });
         }
         let cfg = self.train_config()?;
-        let zcfg = zone_config(args.zones, &args.uniform_by, args.min_zone_frames)?;
+        let zcfg = args.zones.config(args.uniform_by, args.min_zone_frames);
         let dataset = Dataset::open(&args.data)?;
         let seq = dataset.sequence(&args.seq)?;
         let zones = ZoneTable::from_sequence(&seq, &zcfg)?;
@@ -614,6 +607,7 @@ impl Drop for TrainBars<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use endoloc_net::train::Schedule;
 
     fn config(job: TrainJob) -> Result<TrainConfig> {
         TrainJob {
@@ -635,13 +629,13 @@ mod tests {
         let cfg = config(job()).unwrap();
         assert_eq!(cfg.backbone, BackboneConfig::compact());
         assert_eq!(cfg.pairs, PairRule::Zone);
-        assert_eq!(cfg.schedule, Schedule::from_name("fast").unwrap());
+        assert_eq!(cfg.schedule, Schedule::fast());
     }
 
     #[test]
     fn pooling_and_tilt_reach_the_config_and_bad_values_are_named() {
         let cfg = config(TrainJob {
-            pooling: Some("gem".into()),
+            pooling: Some(Pooling::Gem),
             tilt_deg: Some(12.0),
             ..job()
         })
@@ -651,13 +645,10 @@ mod tests {
         };
         assert_eq!(pooling, Pooling::Gem);
         assert_eq!(cfg.augment.tilt_deg, 12.0);
-        let e = config(TrainJob {
-            pooling: Some("max".into()),
-            ..job()
-        })
-        .unwrap_err()
-        .to_string();
-        assert!(e.contains("`pooling` max") && e.contains("gem"), "{e}");
+        let e = toml::from_str::<TrainJob>("pooling = \"max\"")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`max`") && e.contains("`gem`"), "{e}");
         let e = config(TrainJob {
             tilt_deg: Some(90.0),
             ..job()
@@ -666,8 +657,8 @@ mod tests {
         .to_string();
         assert!(e.contains("`tilt_deg` 90"), "{e}");
         let e = config(TrainJob {
-            backbone: "googlenet".into(),
-            pooling: Some("gem".into()),
+            backbone: Backbone::GoogLeNet,
+            pooling: Some(Pooling::Gem),
             ..job()
         })
         .unwrap_err()
@@ -678,7 +669,7 @@ mod tests {
     #[test]
     fn pair_settings_reach_the_config_and_bad_values_are_named() {
         let track = |frames: Option<&str>, near: Option<f32>| TrainJob {
-            pairs: Some("track".into()),
+            pairs: Some(Pairs::Track),
             pair_frames: frames.map(str::to_string),
             near_fraction: near,
             ..job()
@@ -693,13 +684,10 @@ mod tests {
                 zone_fraction: 0.0
             }
         );
-        let e = config(TrainJob {
-            pairs: Some("frames".into()),
-            ..job()
-        })
-        .unwrap_err()
-        .to_string();
-        assert!(e.contains("`pairs` frames"), "{e}");
+        let e = toml::from_str::<TrainJob>("pairs = \"frames\"")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`frames`") && e.contains("`track`"), "{e}");
         let e = config(TrainJob {
             pair_frames: Some("2,8".into()),
             ..job()
@@ -715,10 +703,18 @@ mod tests {
 
     #[test]
     fn zone_specs_parse_and_bad_ones_are_named() {
+        let spec: ZoneSpec = "expert:30".parse().unwrap();
         assert_eq!(
-            zone_config("expert:30".parse().unwrap(), "arc-length", 3).unwrap(),
+            spec.config(UniformBy::ArcLength, 3),
             ZoneConfig::Expert { count: 30 }
         );
+        for (text, by) in [
+            ("arc-length", UniformBy::ArcLength),
+            ("frames", UniformBy::Frames),
+        ] {
+            let job: TrainJob = toml::from_str(&format!("uniform_by = \"{text}\"")).unwrap();
+            assert_eq!(job.uniform_by, by);
+        }
         let e = "many".parse::<ZoneSpec>().unwrap_err().to_string();
         assert!(e.contains("zones \"many\""), "{e}");
         let job: TrainJob = toml::from_str("zones = \"expert:9\"").unwrap();

@@ -81,6 +81,29 @@ pub enum Pooling {
     Gem,
 }
 
+impl std::fmt::Display for Pooling {
+    /// `average` or `gem`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Pooling::Average => "average",
+            Pooling::Gem => "gem",
+        })
+    }
+}
+
+impl std::str::FromStr for Pooling {
+    type Err = crate::NetError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "average" | "avg" => Ok(Pooling::Average),
+            "gem" => Ok(Pooling::Gem),
+            other => Err(crate::NetError::Config(format!(
+                "unknown pooling {other:?}; expected average or gem"
+            ))),
+        }
+    }
+}
+
 impl Pooling {
     /// Exponent of the generalised mean (1 = average).
     pub fn exponent(self) -> f32 {

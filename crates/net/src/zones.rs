@@ -56,9 +56,20 @@ pub const ZONES_FILE: &str = "zones.csv";
 pub enum UniformBy {
     /// Equal arc length of the camera path (mm) per zone. The default.
     #[default]
+    #[serde(alias = "arc-length")]
     ArcLength,
     /// Equal numbers of frames per zone (sizes differ by at most one frame).
     Frames,
+}
+
+impl std::fmt::Display for UniformBy {
+    /// `arc-length` or `frames`, as the options spell them.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            UniformBy::ArcLength => "arc-length",
+            UniformBy::Frames => "frames",
+        })
+    }
 }
 
 impl std::str::FromStr for UniformBy {

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use endoloc_jobs::experiment::{BenchmarkJob, CompareJob, ExpertJob, PerturbJob, ZoneSweepJob};
+use endoloc_experiments::{BenchmarkJob, CompareJob, ExpertJob, PerturbJob, ZoneSweepJob};
 use endoloc_jobs::{
     ClassifyJob, DemoJob, EvalJob, FeaturesJob, LocalizeJob, MapJob, PretrainJob, Progress, RunJob,
     SimulateJob, TrainJob, ViewJob,

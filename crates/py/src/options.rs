@@ -2,7 +2,7 @@
 //! (its clap derive): names, the fields they set, `no_…` negations, and the TOML table they
 //! make. The job runner and `Localizer` both take their options from here.
 
-use endoloc_jobs::experiment::{
+use endoloc_experiments::{
     BenchmarkJob, CompareJob, ExperimentData, ExpertJob, PerturbJob, ZoneSweepJob,
 };
 use endoloc_jobs::{

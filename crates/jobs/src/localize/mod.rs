@@ -25,6 +25,7 @@ pub use summary::{LatencyHistogram, RunSummary};
 
 use crate::bail;
 use crate::baselines::{self, Estimates};
+use crate::choice::Device;
 use crate::error::{Context, JobError, Result};
 use crate::predict::predict_zones;
 use crate::progress::{Progress, bar};
@@ -335,7 +336,7 @@ impl LocalizeJob {
             .model
             .as_deref()
             .context("a model folder is required (`model`)")?;
-        let classifier = load_classifier(model, &self.also_model, "cpu")?;
+        let classifier = load_classifier(model, &self.also_model, Device::Cpu)?;
         let map = load_map(model)?;
         let mut cfg = self.localizer_config(&map.config.surf);
         adjust(&mut cfg, &map.config.surf);
@@ -582,9 +583,9 @@ impl LocalizeJob {
 ///
 /// # Errors
 /// A model that cannot be loaded, or models that cannot be joined.
-pub fn load_classifier(model: &Path, also: &[PathBuf], device: &str) -> Result<ZoneClassifier> {
+pub fn load_classifier(model: &Path, also: &[PathBuf], device: Device) -> Result<ZoneClassifier> {
     let load = |dir: &Path| {
-        ZoneClassifier::load_on(dir, device)
+        ZoneClassifier::load_on(dir, device.name())
             .with_context(|| format!("loading model {}", dir.display()))
     };
     let first = load(model)?;

@@ -1,8 +1,8 @@
 //! `endoloc experiment benchmark`.
 
 use anyhow::Result;
+use endoloc_experiments::BenchmarkJob;
 use endoloc_jobs::Progress;
-use endoloc_jobs::experiment::BenchmarkJob;
 
 /// Run the whole chain — simulate, index (or train), map, localize with each method,
 /// evaluate — on several colons: procedural ones (one per --seeds value; none of them was

@@ -1,8 +1,8 @@
 //! `endoloc experiment compare`.
 
 use anyhow::Result;
+use endoloc_experiments::CompareJob;
 use endoloc_jobs::Progress;
-use endoloc_jobs::experiment::CompareJob;
 
 /// Compare every method on one dataset: our two-step method (per frame as in the paper,
 /// with candidate zones, live and offline temporal filtering) against the baselines —

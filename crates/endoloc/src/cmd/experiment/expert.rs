@@ -1,8 +1,8 @@
 //! `endoloc experiment expert`.
 
 use anyhow::Result;
+use endoloc_experiments::ExpertJob;
 use endoloc_jobs::Progress;
-use endoloc_jobs::experiment::ExpertJob;
 
 /// Anatomical ("expert") zones against uniform ones: train one model on the sections of
 /// sections.csv subdivided to --count zones and one on --uniform equal-length zones (by

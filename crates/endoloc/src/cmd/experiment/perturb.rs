@@ -1,8 +1,8 @@
 //! `endoloc experiment perturb`.
 
 use anyhow::Result;
+use endoloc_experiments::PerturbJob;
 use endoloc_jobs::Progress;
-use endoloc_jobs::experiment::PerturbJob;
 
 /// Force the zone of each test frame to k ± e (k: its true zone, from the ground-truth pose)
 /// for e = −max … max and run the refinement from that zone's median pose with that zone's

@@ -1,8 +1,8 @@
 //! `endoloc experiment zones`.
 
 use anyhow::Result;
+use endoloc_experiments::ZoneSweepJob;
 use endoloc_jobs::Progress;
-use endoloc_jobs::experiment::ZoneSweepJob;
 
 /// Sweep the number of uniform zones: for every count from --from to --to (step --step),
 /// train --runs models with different seeds, map, localize the test pass with our method and

@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
-use crate::bail;
-use crate::error::{Context, Result};
 use endoloc_eval::{HtmlReport, PlotConfig, plot_method_bars};
+use endoloc_jobs::bail;
+use endoloc_jobs::error::{Context, Result};
 use endoloc_localize::map_io::load_map;
 use endoloc_net::{ZoneClassifier, ZoneSpec};
 
@@ -16,7 +16,7 @@ use super::common::{
     TrainSpec, ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc,
     write_and_evaluate,
 };
-use crate::progress::Progress;
+use endoloc_jobs::progress::Progress;
 
 /// Anatomical ("expert") zones against uniform ones: train one model on the sections of
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

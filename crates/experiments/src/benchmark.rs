@@ -14,12 +14,12 @@ use serde::{Deserialize, Serialize};
 
 use super::common::{self, DataArgs, MethodRow, shell_quote};
 use super::compare::{CompareJob, Method};
-use crate::bail;
-use crate::error::{Context, Result};
-use crate::note;
-use crate::progress::Progress;
-use crate::{SimulateJob, TrainJob};
 use endoloc_eval::{BoxColumn, HtmlReport, PlotConfig, plot_error_boxes};
+use endoloc_jobs::bail;
+use endoloc_jobs::error::{Context, Result};
+use endoloc_jobs::note;
+use endoloc_jobs::progress::Progress;
+use endoloc_jobs::{SimulateJob, TrainJob};
 
 /// The chain over several colons, resumable per colon.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

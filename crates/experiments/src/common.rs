@@ -6,10 +6,6 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::bail;
-use crate::error::{Context, Result};
-use crate::note;
-use crate::progress::{Progress, bar};
 use endoloc_data::write_atomic;
 use endoloc_data::{Dataset, Sequence, StampedPose};
 use endoloc_eval::{
@@ -18,14 +14,18 @@ use endoloc_eval::{
 };
 use endoloc_features::{Feature, SurfConfig};
 use endoloc_geometry::{Pose, Status};
+use endoloc_jobs::bail;
+use endoloc_jobs::error::{Context, Result};
+use endoloc_jobs::note;
+use endoloc_jobs::progress::{Progress, bar};
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{
     ConfirmConfig, FrameResult, Localizer, LocalizerConfig, RetryFeatures, StageTimes,
 };
 use endoloc_net::{ZoneClassifier, ZonePrediction, ZoneSpec, viterbi};
 
-pub(super) use crate::predict::predict_zones;
-use crate::{MapJob, TrainJob};
+pub(super) use endoloc_jobs::predict::predict_zones;
+use endoloc_jobs::{MapJob, TrainJob};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -206,7 +206,7 @@ impl FeatureCache {
         retry_threshold: f32,
         progress: &dyn Progress,
     ) -> Result<Self> {
-        let mask = crate::localize::dataset_mask(&seq.dir)?;
+        let mask = endoloc_jobs::localize::dataset_mask(&seq.dir)?;
         let extractor = surf
             .clone()
             .init()
@@ -518,8 +518,10 @@ pub(super) fn write_and_evaluate(
         })
         .collect();
     endoloc_data::write_tum(&dir.join("trajectory.txt"), &est)?;
-    let frames: Option<Vec<FrameRecord>> =
-        out.results.as_deref().map(crate::localize::frame_records);
+    let frames: Option<Vec<FrameRecord>> = out
+        .results
+        .as_deref()
+        .map(endoloc_jobs::localize::frame_records);
     if let Some(f) = &frames {
         write_frames_csv(&dir.join("frames.csv"), f)?;
     }

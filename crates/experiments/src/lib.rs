@@ -1,5 +1,8 @@
-//! The paper's comparisons and studies, each in one output folder with its tables (markdown,
-//! JSON), plots and a self-contained HTML report.
+//! endoloc's experiments: the paper's comparisons and studies, composed from the stages of
+//! `endoloc-jobs`, each in one output folder with its tables (markdown, JSON), plots and a
+//! self-contained HTML report. Like the stages, each is a serialisable job whose options are
+//! its fields (clap's derive with the `cli` feature), run with an
+//! [`endoloc_jobs::Progress`] sink.
 //!
 //! - [`BenchmarkJob`] — the whole chain over several colons, mean ± 95 % confidence interval;
 //! - [`CompareJob`] — every method on the same data (the paper's Table I);
@@ -10,6 +13,8 @@
 //! Experiments reuse what they already computed: a folder's models, maps and runs are kept,
 //! and a second run continues where the first stopped. SURF features of the test frames are
 //! extracted once per run and shared by every method that needs them.
+
+#![warn(missing_docs)]
 
 mod benchmark;
 mod common;

@@ -2,8 +2,8 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::error::{Context, Result};
 use endoloc_eval::{HtmlReport, PlotConfig, plot_method_bars};
+use endoloc_jobs::error::{Context, Result};
 use endoloc_localize::map_io::load_map;
 use endoloc_net::ZoneClassifier;
 use endoloc_net::ZoneSpec;
@@ -14,9 +14,9 @@ use super::common::{
     TrainSpec, ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc,
     write_and_evaluate,
 };
-use crate::baselines::{self, Regressor};
-use crate::note;
-use crate::progress::Progress;
+use endoloc_jobs::baselines::{self, Regressor};
+use endoloc_jobs::note;
+use endoloc_jobs::progress::Progress;
 
 /// Compare every method on one dataset: our two-step method (per frame as in the paper,
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -400,7 +400,7 @@ impl Ctx<'_> {
                     }
                     _ => baselines::vo(
                         &ds.meta.camera,
-                        crate::localize::mask_of(&ds)?,
+                        endoloc_jobs::localize::mask_of(&ds)?,
                         test,
                         progress,
                     )?,

@@ -4,11 +4,11 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::bail;
-use crate::error::{Context, Result};
 use endoloc_eval::stats::{mean, median};
 use endoloc_eval::{BoxColumn, HtmlReport, PlotConfig, plot_error_boxes};
 use endoloc_geometry::Status;
+use endoloc_jobs::bail;
+use endoloc_jobs::error::{Context, Result};
 use endoloc_net::{ZoneClassifier, ZoneSpec};
 use serde::{Deserialize, Serialize};
 
@@ -16,8 +16,8 @@ use super::common::{
     self, Data, DataArgs, EndolocRun, ExperimentReport, FeatureCache, TrainSpec, ZoneChoice,
     ensure_map, ensure_model, pose_error, predict_zones, run_endoloc, shell_quote,
 };
-use crate::note;
-use crate::progress::Progress;
+use endoloc_jobs::note;
+use endoloc_jobs::progress::Progress;
 
 /// Sweep the number of uniform zones: for every count from --from to --to (step --step),
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

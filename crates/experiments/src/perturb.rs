@@ -4,10 +4,10 @@
 
 use std::path::PathBuf;
 
-use crate::error::{Context, Result};
 use endoloc_eval::stats::mean_median;
 use endoloc_eval::{CurvePoint, HtmlReport, PlotConfig, plot_error_curve};
 use endoloc_geometry::Status;
+use endoloc_jobs::error::{Context, Result};
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{Localizer, LocalizerConfig, StageTimes};
 use endoloc_net::ZoneClassifier;
@@ -19,7 +19,7 @@ use super::common::{
     self, Data, DataArgs, ExperimentReport, FeatureCache, TrainSpec, ensure_map, ensure_model,
     pose_error,
 };
-use crate::progress::{Progress, bar};
+use endoloc_jobs::progress::{Progress, bar};
 
 /// Force the zone of each test frame to k ± e (k: its true zone, from the ground-truth pose)
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -1,9 +1,9 @@
-//! Every job's options are defined once, on the job type: each of its command-line arguments
+//! Every job's options (the stages' and the experiments') are defined once, on the job type: each of its command-line arguments
 //! (the `cli` feature's clap derive) is a key of the job's TOML table with the job's own
 //! default and a help text, and every key of the table has an argument.
 
 use clap::{ArgAction, Args, Command, FromArgMatches};
-use endoloc_jobs::experiment::{
+use endoloc_experiments::{
     BenchmarkJob, CompareJob, ExperimentData, ExpertJob, PerturbJob, ZoneSweepJob,
 };
 use endoloc_jobs::{
