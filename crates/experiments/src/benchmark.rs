@@ -20,6 +20,7 @@ use endoloc_jobs::error::{Context, Result};
 use endoloc_jobs::note;
 use endoloc_jobs::progress::Progress;
 use endoloc_jobs::{SimulateJob, TrainJob};
+use endoloc_sim::Preset;
 
 /// The chain over several colons, resumable per colon.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -31,7 +32,7 @@ pub struct BenchmarkJob {
     pub out: PathBuf,
     /// Simulator preset of every colon (see the simulate job's `preset`).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = BenchmarkJob::default().preset))]
-    pub preset: String,
+    pub preset: Preset,
     /// Procedural colons: simulator seeds, e.g. 1-8, 1,3,5 or none.
     #[cfg_attr(feature = "cli", arg(long, default_value = "1-8", value_parser = parse_seeds))]
     pub seeds: Seeds,
@@ -94,7 +95,7 @@ impl Default for BenchmarkJob {
     fn default() -> Self {
         BenchmarkJob {
             out: "experiments/benchmark".into(),
-            preset: "paper".into(),
+            preset: Preset::Paper,
             seeds: (1..=8).collect(),
             dev_seeds: Vec::new(),
             gca: Vec::new(),
@@ -336,7 +337,7 @@ impl BenchmarkJob {
         let mut c = format!(
             "endoloc experiment benchmark --out {} --preset {} --zones {} --seed {}",
             q(&self.out),
-            shell_quote(&self.preset),
+            self.preset,
             self.zones,
             self.seed
         );
@@ -489,7 +490,7 @@ impl BenchmarkJob {
         if !data.join("dataset.toml").is_file() {
             note!(progress, "simulating {}", c.name);
             let sim = SimulateJob {
-                preset: self.preset.clone(),
+                preset: self.preset,
                 seed: Some(c.seed),
                 gca: c.gca.clone(),
                 inflation: c.gca.as_ref().and(self.inflation),

@@ -321,7 +321,7 @@ impl DemoJob {
         let p = |rel: &str| self.out.join(rel);
         let mut t = Timings::default();
         let sim = SimulateJob {
-            preset: "small".into(),
+            preset: endoloc_sim::Preset::Small,
             seed: Some(self.seed),
             width: Some(self.size.0),
             height: Some(self.size.1),
@@ -519,7 +519,7 @@ impl SimulateJob {
     /// The `endoloc simulate` command line of this job.
     pub fn command_line(&self) -> String {
         CommandLine::new("simulate")
-            .arg("preset", &self.preset)
+            .arg("preset", self.preset)
             .opt("seed", self.seed)
             .opt("width", self.width)
             .opt("height", self.height)

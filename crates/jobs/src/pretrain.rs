@@ -15,6 +15,7 @@ use crate::error::{Context, JobError, Result};
 use crate::progress::Progress;
 use crate::simulate::{SimulateJob, SimulateReport};
 use crate::train::{TrainBars, TrainJob, TrainReport, pair_rule_from};
+use endoloc_sim::Preset;
 
 /// Pretrains the zone classifier's network on `colons` simulated colons, each rendered with a
 /// training and a test pass (seeds `seed + 101·i`), and writes start weights for
@@ -38,7 +39,7 @@ pub struct PretrainJob {
     pub seed: u64,
     /// Simulator preset of the colons (`paper`, or `small` for a quick try).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = PretrainJob::default().preset))]
-    pub preset: String,
+    pub preset: Preset,
     /// Uniform zones of each colon's training pass.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = PretrainJob::default().zones))]
     pub zones: usize,
@@ -94,7 +95,7 @@ impl Default for PretrainJob {
             out: PathBuf::new(),
             colons: 4,
             seed: 101,
-            preset: "paper".into(),
+            preset: Preset::Paper,
             zones: 50,
             epochs: None,
             pairs: None,
@@ -182,7 +183,7 @@ impl PretrainJob {
             } else {
                 progress.note(&format!("\n== {title}: simulate"));
                 let sim = SimulateJob {
-                    preset: self.preset.clone(),
+                    preset: self.preset,
                     seed: Some(seed),
                     out: data.clone(),
                     force: true,

@@ -26,9 +26,11 @@ pub struct SimulateJob {
     #[cfg_attr(
         feature = "cli",
         arg(long, default_value_t = SimulateJob::default().preset,
-            value_parser = ["small", "paper", "c3vd-like"])
+            value_parser = clap::builder::TypedValueParser::map(
+                clap::builder::PossibleValuesParser::new(Preset::ALL.map(|p| p.name())),
+                |s| s.parse::<Preset>().expect("a listed preset")))
     )]
-    pub preset: String,
+    pub preset: Preset,
     /// Full configuration from a TOML file instead of the preset (as printed by
     /// [`SimulateJob::sim_config`] + `to_toml`, or a dataset's dataset.toml to regenerate
     /// that dataset). The other options override it.
@@ -118,7 +120,7 @@ pub struct SimulateJob {
 impl Default for SimulateJob {
     fn default() -> Self {
         SimulateJob {
-            preset: Preset::Small.name().into(),
+            preset: Preset::Small,
             config: None,
             seed: None,
             gca: None,
@@ -168,7 +170,7 @@ impl SimulateJob {
     pub fn sim_config(&self) -> Result<SimConfig> {
         let mut cfg = match &self.config {
             Some(file) => SimConfig::from_toml_file(file)?,
-            None => SimConfig::preset(self.preset.parse::<Preset>()?),
+            None => SimConfig::preset(self.preset),
         };
         if let Some(seed) = self.seed
             && (self.config.is_none() || cfg.seed != seed)

@@ -99,7 +99,8 @@ pub struct SimConfig {
 }
 
 /// Named starting points for a config.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Preset {
     /// The paper's scale: 2610 train + 2603 test frames at 640×480, 30 fps, 90° horizontal
     /// field of view (fx = fy = 320 px).
@@ -125,6 +126,12 @@ impl Preset {
             Preset::Small => "small",
             Preset::C3vdLike => "c3vd-like",
         }
+    }
+}
+
+impl std::fmt::Display for Preset {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
