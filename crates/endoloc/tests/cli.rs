@@ -689,8 +689,8 @@ fn pretrain_chains_colons_and_writes_start_weights_that_train_accepts() {
     again.push("--force");
     let text = ok(&again);
     assert!(text.contains("reusing"), "{text}");
-    // The weights start a model on other data; so do the shipped ones, and the model
-    // remembers where it started.
+    // The weights start a model on other data (indexing its pass with them as they are); so do
+    // the shipped ones, and the model remembers where it started.
     let data = s(&out.join("colon-202"));
     let train_from = |weights: &str, model: &str| {
         let model = s(&tmp.path().join(model));
@@ -701,7 +701,7 @@ fn pretrain_chains_colons_and_writes_start_weights_that_train_accepts() {
             "--zones",
             "4",
             "--epochs",
-            "1",
+            "0",
             "--pretrained",
             weights,
             "--out",
