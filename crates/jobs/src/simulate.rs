@@ -4,7 +4,7 @@ use std::fmt;
 use std::path::PathBuf;
 
 use endoloc_sim::colon::from_mesh::MeshColonConfig;
-use endoloc_sim::{ColonSource, Preset, SimConfig, SimSummary};
+use endoloc_sim::{ColonSource, Preset, Severity, SimConfig, SimSummary};
 use serde::{Deserialize, Serialize};
 
 use crate::bail;
@@ -106,6 +106,22 @@ pub struct SimulateJob {
     /// Smallest distance kept between the lens and the colon wall, mm.
     #[cfg_attr(feature = "cli", arg(long))]
     pub clearance: Option<f64>,
+    /// How the colon changes between the training and the test pass: `none` (both passes
+    /// through the same colon, as before), `mild`, `moderate` or `severe` — mobile segments
+    /// shifted, the lumen insufflated or collapsed, local deformation, another light and
+    /// exposure, residue, fluid and bubbles, a blurred test scope. The test pass's poses.txt
+    /// holds the anatomical poses (in the colon as mapped), poses_changed.txt the poses it was
+    /// rendered from. Each factor can be set alone in the `[simulation.changes]` table of a
+    /// `config` file (`endoloc simulate --changes moderate --print-config` prints one);
+    /// docs/SIMULATOR.md lists what each level means.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "SEVERITY",
+            value_parser = clap::builder::TypedValueParser::map(
+                clap::builder::PossibleValuesParser::new(Severity::ALL.map(|p| p.name())),
+                |s| s.parse::<Severity>().expect("a listed severity")))
+    )]
+    pub changes: Option<Severity>,
     /// Output dataset folder (created; must not exist unless `force`).
     #[cfg_attr(
         feature = "cli",
@@ -140,6 +156,7 @@ impl Default for SimulateJob {
             field_stop: None,
             black_border: None,
             clearance: None,
+            changes: None,
             out: PathBuf::new(),
             force: false,
         }
@@ -234,6 +251,9 @@ impl SimulateJob {
         }
         if let Some(b) = self.black_border {
             cfg.render.black_border_px = b;
+        }
+        if let Some(severity) = self.changes {
+            cfg = cfg.with_changes(severity);
         }
         cfg.validate()?;
         Ok(cfg)

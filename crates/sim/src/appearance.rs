@@ -114,6 +114,9 @@ pub struct MucosaAtlas {
     /// Texture contrast multiplier along the colon, one value per row (1 = normal,
     /// ≈0.06 in a textureless stretch).
     pub contrast: Vec<f32>,
+    /// Specular multiplier per texel × 64 (64 = 1×), where something glossy covers the wall
+    /// (fluid in a changed colon, see [`crate::change::cover_atlas`]); `None`: 1 everywhere.
+    pub gloss: Option<Vec<u8>>,
 }
 
 impl MucosaAtlas {
@@ -205,6 +208,7 @@ impl MucosaAtlas {
             rows,
             texels,
             contrast,
+            gloss: None,
         })
     }
 
@@ -238,6 +242,18 @@ impl MucosaAtlas {
         (out, dh_du / self.texel_mm, dh_dv / rad_per_texel)
     }
 
+    /// Specular multiplier at `(s, θ)` (nearest texel; 1 without a gloss layer).
+    #[inline]
+    pub fn gloss_at(&self, s: f32, theta: f32) -> f32 {
+        match &self.gloss {
+            Some(g) => {
+                let (i00, _, _, _, _, _) = self.corners(s, theta);
+                g[i00] as f32 * (1.0 / crate::change::GLOSS_ONE as f32)
+            }
+            None => 1.0,
+        }
+    }
+
     /// Texel indices of the four bilinear corners and the fractional offsets.
     #[inline]
     fn corners(&self, s: f32, theta: f32) -> (usize, usize, usize, usize, f32, f32) {
@@ -259,7 +275,7 @@ impl MucosaAtlas {
 
     /// Memory held by the atlas, bytes.
     pub fn bytes(&self) -> usize {
-        self.texels.len() * 4 + self.contrast.len() * 4
+        self.texels.len() * 4 + self.contrast.len() * 4 + self.gloss.as_ref().map_or(0, Vec::len)
     }
 }
 
@@ -330,12 +346,12 @@ fn textureless_profile(
 }
 
 /// Value noise on a lattice that is periodic along its second coordinate.
-struct PeriodicNoise {
+pub(crate) struct PeriodicNoise {
     seed: u64,
 }
 
 impl PeriodicNoise {
-    fn new(seed: u64) -> Self {
+    pub(crate) fn new(seed: u64) -> Self {
         PeriodicNoise { seed }
     }
 
@@ -348,7 +364,7 @@ impl PeriodicNoise {
 
     /// Smooth noise in `[-1, 1]` at `(x, y)`, periodic in `y` with period `period_y` (rounded to
     /// a whole number of lattice cells).
-    fn value(&self, x: f64, y: f64, period_y: f64) -> f64 {
+    pub(crate) fn value(&self, x: f64, y: f64, period_y: f64) -> f64 {
         let py = period_y.round().max(1.0) as i64;
         let (xf, yf) = (x.floor(), y.floor());
         let (fx, fy) = (x - xf, y - yf);
@@ -365,7 +381,7 @@ impl PeriodicNoise {
         top + (bottom - top) * sy
     }
 
-    fn fbm(&self, x: f64, y: f64, period_y: f64, octaves: u32) -> f64 {
+    pub(crate) fn fbm(&self, x: f64, y: f64, period_y: f64, octaves: u32) -> f64 {
         let mut sum = 0.0;
         let mut amp = 1.0;
         let mut norm = 0.0;

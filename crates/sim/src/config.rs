@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::SimError;
 use crate::appearance::AppearanceConfig;
+use crate::change::ChangeConfig;
 use crate::colon::from_mesh::MeshColonConfig;
 use crate::colon::procedural::ProceduralColonConfig;
 use crate::render::RenderConfig;
@@ -96,6 +97,10 @@ pub struct SimConfig {
     pub train: TrajectoryConfig,
     /// Test pass (same colon, independent motion).
     pub test: TrajectoryConfig,
+    /// How the colon, its look and the scope change between the training and the test pass
+    /// (nothing by default; stored only when something changes).
+    #[serde(default, skip_serializing_if = "ChangeConfig::is_none")]
+    pub changes: ChangeConfig,
 }
 
 /// Named starting points for a config.
@@ -149,6 +154,15 @@ impl std::str::FromStr for Preset {
     }
 }
 
+/// The tag of the change's seed among the seeds derived from the master seed.
+const CHANGES_SEED_TAG: u64 = 5;
+
+/// The seed of one stage, derived from the master seed (63 bits: TOML integers are signed
+/// 64-bit).
+fn derived_seed(master: u64, tag: u64) -> u64 {
+    crate::appearance::splitmix64(master ^ tag.wrapping_mul(0x9E37_79B9)) >> 1
+}
+
 impl SimConfig {
     /// The config of a preset, with the default master seed 0.
     pub fn preset(preset: Preset) -> Self {
@@ -167,6 +181,7 @@ impl SimConfig {
             render: RenderConfig::default(),
             train: TrajectoryConfig::default(),
             test: TrajectoryConfig::default(),
+            changes: ChangeConfig::default(),
         };
         // The paper's passes: 2610 training and 2603 test frames.
         let paper_passes = SimConfig {
@@ -228,9 +243,7 @@ impl SimConfig {
     /// Sets the master seed and derives from it the seeds of the colon shape, the texture and
     /// both passes (train and test always differ).
     pub fn with_seed(mut self, seed: u64) -> Self {
-        // 63-bit seeds: TOML integers are signed 64-bit.
-        let derive =
-            |tag: u64| crate::appearance::splitmix64(seed ^ tag.wrapping_mul(0x9E37_79B9)) >> 1;
+        let derive = |tag: u64| derived_seed(seed, tag);
         self.seed = seed;
         if let ColonSource::Procedural(p) = &mut self.colon {
             p.seed = derive(1);
@@ -238,6 +251,18 @@ impl SimConfig {
         self.appearance.seed = derive(2);
         self.train.seed = derive(3);
         self.test.seed = derive(4);
+        self.changes.seed = derive(CHANGES_SEED_TAG);
+        self
+    }
+
+    /// Changes the colon between the passes as a severity preset does (the change's seed
+    /// kept).
+    pub fn with_changes(mut self, severity: crate::change::Severity) -> Self {
+        let seed = self.changes.seed;
+        self.changes = ChangeConfig {
+            seed,
+            ..ChangeConfig::preset(severity)
+        };
         self
     }
 
@@ -262,6 +287,7 @@ impl SimConfig {
         self.render.validate()?;
         self.train.validate()?;
         self.test.validate()?;
+        self.changes.validate()?;
         if let ColonSource::Mesh(m) = &self.colon {
             for (what, p) in [("surface", &m.surface), ("path", &m.path)] {
                 if !p.is_file() {
@@ -297,9 +323,15 @@ impl SimConfig {
             Some(toml::Value::Table(t)) => t.clone(),
             _ => value,
         };
-        table.try_into().map_err(|e: toml::de::Error| {
+        let has_changes = table.contains_key("changes");
+        let mut cfg: SimConfig = table.try_into().map_err(|e: toml::de::Error| {
             SimError::InvalidConfig(format!("{}: {e}", path.display()))
-        })
+        })?;
+        if !has_changes {
+            // An unchanged colon stores no change; its seed derives from the master seed.
+            cfg.changes.seed = derived_seed(cfg.seed, CHANGES_SEED_TAG);
+        }
+        Ok(cfg)
     }
 
     /// Files this config reads (mesh colon inputs), for provenance.

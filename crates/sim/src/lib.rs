@@ -16,6 +16,7 @@
 
 pub mod appearance;
 pub mod centerline;
+pub mod change;
 pub mod colon;
 pub mod config;
 pub mod render;
@@ -25,6 +26,7 @@ pub mod trajectory;
 #[cfg(test)]
 mod config_tests;
 
+pub use change::{ChangeConfig, Severity};
 pub use config::{CameraConfig, ColonSource, Preset, SimConfig};
 pub use simulate::{Progress, SimSummary, simulate};
 

@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::SimError;
 use crate::appearance::{MucosaAtlas, splitmix64};
+use crate::change::ChangedLook;
 use crate::colon::ColonModel;
 
 /// Lighting, optics and sensor parameters.
@@ -180,6 +181,8 @@ pub struct Renderer<'a> {
     vignette: Vec<f32>,
     /// The valid area (255) when a field stop or black border hides part of the frame.
     mask: Option<Vec<u8>>,
+    /// Another light, exposure, bubbles and defocus (the test pass of a changed colon).
+    look: Option<&'a ChangedLook>,
 }
 
 impl<'a> Renderer<'a> {
@@ -197,18 +200,7 @@ impl<'a> Renderer<'a> {
     ) -> Result<Self, SimError> {
         camera.validate().map_err(SimError::InvalidConfig)?;
         cfg.validate()?;
-        let gamma_lut = (0..4096)
-            .map(|i| {
-                let x = i as f64 / 4095.0;
-                // sRGB transfer curve.
-                let y = if x <= 0.003_130_8 {
-                    12.92 * x
-                } else {
-                    1.055 * x.powf(1.0 / 2.4) - 0.055
-                };
-                (y * 255.0).round().clamp(0.0, 255.0) as u8
-            })
-            .collect();
+        let gamma_lut = display_lut(1.0);
         let (w, h) = (camera.width as usize, camera.height as usize);
         let half_diag2 = ((w as f64 / 2.0).powi(2) + (h as f64 / 2.0).powi(2)).max(1e-9);
         let mut vignette = Vec::with_capacity(w * h);
@@ -264,7 +256,16 @@ impl<'a> Renderer<'a> {
             gamma_lut,
             vignette,
             mask: has_mask.then_some(mask),
+            look: None,
         })
+    }
+
+    /// Renders with a changed look: light, exposure and white balance, gamma, glossy cover
+    /// (the atlas's gloss layer), bubbles and defocus.
+    pub fn with_look(mut self, look: &'a ChangedLook) -> Self {
+        self.gamma_lut = display_lut(look.gamma);
+        self.look = Some(look);
+        self
     }
 
     /// The camera frames are rendered with.
@@ -293,6 +294,19 @@ impl<'a> Renderer<'a> {
         noise_seed: u64,
         scratch: &mut RenderScratch,
     ) -> RenderedFrame {
+        self.render_frame(sub_poses, noise_seed, 0, scratch)
+    }
+
+    /// [`Renderer::render`] for frame `frame` of a pass: the frame index drives a changed
+    /// look's exposure drift and bubbles (see [`Renderer::with_look`]); without one it is
+    /// ignored.
+    pub fn render_frame(
+        &self,
+        sub_poses: &[(Pose, f64)],
+        noise_seed: u64,
+        frame: usize,
+        scratch: &mut RenderScratch,
+    ) -> RenderedFrame {
         let n = (self.raster.width * self.raster.height) as usize;
         scratch.linear.clear();
         scratch.linear.resize(3 * n, 0.0);
@@ -312,7 +326,12 @@ impl<'a> Renderer<'a> {
         if let Some(table) = &self.remap {
             self.resample(table, scratch);
         }
-        let rgb = self.finish(noise_seed, scratch);
+        if let Some(look) = self.look {
+            let (w, h) = (self.camera.width as usize, self.camera.height as usize);
+            look.draw_bubbles(&mut scratch.linear, w, h, frame);
+            look.defocus(&mut scratch.linear, w, h);
+        }
+        let rgb = self.finish(noise_seed, frame, scratch);
         RenderedFrame {
             rgb,
             depth_mm: scratch.depth.clone(),
@@ -425,9 +444,15 @@ impl<'a> Renderer<'a> {
     ) {
         let mesh = &self.colon.mesh;
         let cfg = &self.cfg;
-        let power = (cfg.light_power) as f32;
+        let look = self.look;
+        let (power, specular) = match look {
+            Some(l) => (
+                cfg.light_power as f32 * l.light_power,
+                cfg.specular as f32 * l.specular,
+            ),
+            None => (cfg.light_power as f32, cfg.specular as f32),
+        };
         let ambient = cfg.ambient as f32;
-        let specular = cfg.specular as f32;
         let squarings = cfg.shininess.clamp(2, 256).ilog2();
         let bump = cfg.bump as f32;
         let bump_k = bump * 0.6;
@@ -477,13 +502,23 @@ impl<'a> Renderer<'a> {
             let d = d2.sqrt();
             let l = [-p[0] / d, -p[1] / d, -p[2] / d];
             let ndl = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]).abs();
-            let lobe = (p[2] / d).max(0.0);
+            let mut lobe = (p[2] / d).max(0.0);
+            if let Some(l) = look
+                && l.beam_exponent != 1.0
+            {
+                lobe = lobe.powf(l.beam_exponent);
+            }
             let irradiance = power * lobe / d2;
             let mut spec = ndl;
             for _ in 0..squarings {
                 spec *= spec;
             }
-            let spec = specular * spec * irradiance;
+            let mut spec = specular * spec * irradiance;
+            if let Some(l) = look {
+                spec *= atlas.gloss_at(s, theta);
+                let n2 = ndl * ndl;
+                spec += l.sheen * n2 * n2 * irradiance;
+            }
             let diffuse = ndl * irradiance + ambient;
             for (c, t) in tex.iter().take(3).enumerate() {
                 scratch.linear[3 * i + c] += weight * (t * diffuse + spec);
@@ -532,7 +567,7 @@ impl<'a> Renderer<'a> {
     }
 
     /// Tone curve, vignetting, gamma and sensor noise → 8-bit RGB.
-    fn finish(&self, noise_seed: u64, scratch: &RenderScratch) -> Vec<u8> {
+    fn finish(&self, noise_seed: u64, frame: usize, scratch: &RenderScratch) -> Vec<u8> {
         let sigma = self.cfg.noise_sigma as f32;
         let lut = &self.gamma_lut;
         let gain = if self.cfg.exposure_jitter > 0.0 {
@@ -545,6 +580,10 @@ impl<'a> Renderer<'a> {
         } else {
             1.0
         };
+        let (gain, white_balance) = match self.look {
+            Some(l) => (gain * l.gain_at(frame), l.white_balance),
+            None => (gain, [1.0; 3]),
+        };
         let mut out = vec![0u8; scratch.linear.len()];
         for (i, px) in out.chunks_exact_mut(3).enumerate() {
             let v = self.vignette[i] * gain;
@@ -554,7 +593,8 @@ impl<'a> Renderer<'a> {
                 0
             };
             for (c, out) in px.iter_mut().enumerate() {
-                let x = scratch.linear[3 * i + c] * v;
+                // × 1 without a changed look: exact, the same bytes.
+                let x = scratch.linear[3 * i + c] * v * white_balance[c];
                 // Soft shoulder: linear near 0, saturating smoothly towards 1.
                 let y = x * (1.0 + x * 0.25) / (1.0 + x);
                 let g = lut[((y.clamp(0.0, 1.0)) * 4095.0) as usize] as f32;
@@ -574,6 +614,23 @@ impl<'a> Renderer<'a> {
         }
         out
     }
+}
+
+/// The display curve: `x^gamma` then the sRGB transfer curve, 12 bits in, 8 bits out.
+fn display_lut(gamma: f64) -> Vec<u8> {
+    (0..4096)
+        .map(|i| {
+            let x = i as f64 / 4095.0;
+            let x = if gamma == 1.0 { x } else { x.powf(gamma) };
+            // sRGB transfer curve.
+            let y = if x <= 0.003_130_8 {
+                12.92 * x
+            } else {
+                1.055 * x.powf(1.0 / 2.4) - 0.055
+            };
+            (y * 255.0).round().clamp(0.0, 255.0) as u8
+        })
+        .collect()
 }
 
 /// Largest raster side for a distorted camera, pixels.

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use crate::SimError;
 use crate::appearance::{MucosaAtlas, splitmix64};
+use crate::change::{ChangedPass, Deformation};
 use crate::colon::{ColonModel, from_mesh, procedural};
 use crate::config::{ColonSource, SimConfig};
 use crate::render::{RenderScratch, Renderer};
@@ -112,6 +113,28 @@ pub fn simulate(
         ("test", PassGenerator::new(&colon, &cfg.test)?),
     ];
     let renderer = Renderer::new(&colon, &atlas, camera, cfg.render.clone())?;
+    let changed = if cfg.changes.is_none() {
+        None
+    } else {
+        progress(Progress::Stage("changed colon"));
+        let changed = ChangedPass::new(cfg, &colon)?;
+        for note in &changed.notes {
+            progress(Progress::Note(note));
+        }
+        Some(changed)
+    };
+    let test_renderer = match &changed {
+        Some(c) => Some(
+            Renderer::new(
+                c.colon.as_ref().unwrap_or(&colon),
+                c.atlas.as_ref().unwrap_or(&atlas),
+                camera,
+                c.render.clone(),
+            )?
+            .with_look(&c.look),
+        ),
+        None => None,
+    };
     if let Some(mask) = renderer.mask() {
         let img = image::GrayImage::from_raw(camera.width, camera.height, mask.to_vec())
             .expect("the mask has one byte per pixel");
@@ -123,6 +146,11 @@ pub fn simulate(
     let mut min_clearance = f64::INFINITY;
     for (name, generator) in &passes {
         let pass = generator.generate()?;
+        // The test pass of a changed colon: rendered there, its anatomical poses kept.
+        let (renderer, deformation) = match (*name, &test_renderer, &changed) {
+            ("test", Some(r), Some(c)) => (r, c.deformation.as_ref()),
+            _ => (&renderer, None),
+        };
         min_clearance = pass
             .clearance_mm
             .iter()
@@ -135,11 +163,11 @@ pub fn simulate(
         let seq = writer.sequence(name)?;
         let seq_seed = splitmix64(generator.config().seed ^ 0x5EED);
         render_pass(
-            &renderer,
+            renderer,
             generator,
             &pass,
             seq_seed,
-            cfg.depth,
+            deformation,
             |frame, rendered| {
                 let (w, h) = (camera.width, camera.height);
                 seq.write_rgb(frame, w, h, &rendered.rgb)?;
@@ -159,15 +187,28 @@ pub fn simulate(
                 pose: *p,
             })
             .collect();
+        if let Some(d) = deformation {
+            let moved: Vec<StampedPose> = stamped
+                .iter()
+                .zip(&pass.s_mm)
+                .map(|(p, s)| StampedPose {
+                    timestamp_s: p.timestamp_s,
+                    pose: d.map_pose(&p.pose, *s),
+                })
+                .collect();
+            seq.write_trajectory(endoloc_data::CHANGED_POSES_FILE, &moved)?;
+        }
         seq.finish(&stamped, Some(&pass.sections))?;
         sequences.push((name.to_string(), pass.poses.len()));
     }
     let render_seconds = render_start.elapsed().as_secs_f64();
     let dataset = writer.finish()?;
+    let mut notes = colon.notes.clone();
+    notes.extend(changed.iter().flat_map(|c| c.notes.iter().cloned()));
     Ok(SimSummary {
         dataset,
         colon: colon.description.clone(),
-        notes: colon.notes.clone(),
+        notes,
         colon_length_mm: colon.centerline.length_mm(),
         sequences,
         min_clearance_mm: min_clearance,
@@ -177,7 +218,9 @@ pub fn simulate(
 }
 
 /// Renders every frame of a pass in parallel and hands each to `sink` (called from worker
-/// threads, in no particular order). Stops at the first error.
+/// threads, in no particular order). Stops at the first error. With a `deformation` every
+/// pose of the pass (planned in the unchanged colon) is carried into the changed colon the
+/// renderer draws.
 ///
 /// # Errors
 /// The first error returned by `sink`.
@@ -186,7 +229,7 @@ pub fn render_pass<E: Send>(
     generator: &PassGenerator<'_>,
     pass: &Pass,
     seed: u64,
-    _depth: bool,
+    deformation: Option<&Deformation>,
     sink: impl Fn(usize, &crate::render::RenderedFrame) -> Result<(), E> + Sync,
 ) -> Result<(), E> {
     let samples = renderer.config().motion_blur_samples.max(1) | 1; // odd: middle = frame time
@@ -194,7 +237,7 @@ pub fn render_pass<E: Send>(
     (0..pass.poses.len())
         .into_par_iter()
         .try_for_each_init(RenderScratch::default, |scratch, k| {
-            let sub: Vec<_> = if samples == 1 {
+            let mut sub: Vec<_> = if samples == 1 {
                 vec![(pass.poses[k], pass.s_mm[k])]
             } else {
                 (0..samples)
@@ -205,7 +248,12 @@ pub fn render_pass<E: Send>(
                     })
                     .collect()
             };
-            let frame = renderer.render(&sub, splitmix64(seed ^ k as u64), scratch);
+            if let Some(d) = deformation {
+                for (pose, s) in &mut sub {
+                    *pose = d.map_pose(pose, *s);
+                }
+            }
+            let frame = renderer.render_frame(&sub, splitmix64(seed ^ k as u64), k, scratch);
             sink(k, &frame)
         })
 }

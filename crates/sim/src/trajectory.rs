@@ -130,14 +130,15 @@ pub struct Pass {
     pub clearance_mm: Vec<f64>,
 }
 
-/// A sum of sinusoids normalised to `[-1, 1]`: smooth seeded noise over time.
+/// A sum of sinusoids normalised to `[-1, 1]`: smooth seeded noise over time (or arc length).
 #[derive(Debug, Clone)]
-struct Wave {
+pub(crate) struct Wave {
     terms: Vec<(f64, f64, f64)>, // amplitude, frequency (Hz), phase
 }
 
 impl Wave {
-    fn new(rng: &mut ChaCha8Rng, f_lo: f64, f_hi: f64) -> Self {
+    /// Four terms of frequencies in `[f_lo, f_hi)` (per unit of the argument of [`Wave::at`]).
+    pub(crate) fn new(rng: &mut ChaCha8Rng, f_lo: f64, f_hi: f64) -> Self {
         let terms: Vec<(f64, f64, f64)> = (0..4)
             .map(|_| {
                 (
@@ -153,7 +154,7 @@ impl Wave {
         }
     }
 
-    fn at(&self, t: f64) -> f64 {
+    pub(crate) fn at(&self, t: f64) -> f64 {
         self.terms
             .iter()
             .map(|(a, f, p)| a * (TAU * f * t + p).sin())

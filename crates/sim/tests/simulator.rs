@@ -431,3 +431,110 @@ fn ct_colon_without_rsj_and_ccj_simulates_and_stops_before_the_appendix() {
     assert_eq!(*pass.sections.last().unwrap(), Section::Caecum);
     assert!(pass.s_mm.iter().all(|&s| s < ao_mm - 5.0));
 }
+
+/// FNV-1a 64 over every file of a folder (relative path, then bytes, in path order), skipping
+/// the files named in `skip`.
+fn folder_hash(dir: &Path, skip: &[&str]) -> u64 {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(&p, out);
+            } else {
+                out.push(p);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(dir, &mut files);
+    let mut rel: Vec<String> = files
+        .iter()
+        .map(|p| p.strip_prefix(dir).unwrap().to_string_lossy().into_owned())
+        .filter(|r| !skip.contains(&r.as_str()))
+        .collect();
+    rel.sort();
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for b in bytes {
+            h ^= *b as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for r in &rel {
+        eat(r.as_bytes());
+        eat(&std::fs::read(dir.join(r)).unwrap());
+    }
+    h
+}
+
+/// `endoloc simulate --train-frames 12 --test-frames 12 --width 64 --height 48` with
+/// `changes` (the `small` preset).
+fn micro_config(changes: endoloc_sim::Severity) -> SimConfig {
+    let mut cfg = SimConfig::preset(Preset::Small).with_changes(changes);
+    cfg.camera.width = 64;
+    cfg.camera.height = 48;
+    cfg.train.frames = 12;
+    cfg.test.frames = 12;
+    cfg
+}
+
+#[test]
+fn an_unchanged_colon_gives_the_same_bytes_and_a_changed_one_keeps_anatomical_poses() {
+    use endoloc_sim::Severity;
+    let tmp = tempfile::tempdir().unwrap();
+    let none = tmp.path().join("none");
+    endoloc_sim::simulate(&micro_config(Severity::None), &none, false, &|_| {}).unwrap();
+    // The hash of this dataset as the simulator wrote it before colons could change.
+    assert_eq!(folder_hash(&none, &[]), 0x7814_96fa_557d_d78b);
+
+    let cfg = micro_config(Severity::Moderate);
+    let moved = tmp.path().join("moderate");
+    let summary = endoloc_sim::simulate(&cfg, &moved, false, &|_| {}).unwrap();
+    assert!(summary.notes.iter().any(|n| n.contains("changed colon")));
+    let read = |d: &Path, rel: &str| std::fs::read(d.join(rel)).unwrap();
+    // The map pass is untouched; the test pass keeps its anatomical poses and looks different.
+    assert_eq!(
+        folder_hash(&none.join("train"), &[]),
+        folder_hash(&moved.join("train"), &[])
+    );
+    assert_eq!(
+        read(&none, "test/poses.txt"),
+        read(&moved, "test/poses.txt")
+    );
+    assert_ne!(
+        read(&none, "test/images/000005.png"),
+        read(&moved, "test/images/000005.png")
+    );
+    // The stored config regenerates the change.
+    assert_eq!(
+        SimConfig::from_toml_file(&moved.join("dataset.toml")).unwrap(),
+        cfg
+    );
+
+    // poses_changed.txt carried back through the change is the anatomical pose.
+    let colon = build_colon(&cfg).unwrap();
+    let change = endoloc_sim::change::ChangedPass::new(&cfg, &colon).unwrap();
+    let d = change
+        .deformation
+        .expect("a moderate change moves the colon");
+    let pass = PassGenerator::new(&colon, &cfg.test)
+        .unwrap()
+        .generate()
+        .unwrap();
+    let ds = Dataset::open(&moved).unwrap();
+    let test = ds.sequence("test").unwrap();
+    let changed = endoloc_data::read_tum(&moved.join("test/poses_changed.txt")).unwrap();
+    let mut moved_by: f64 = 0.0;
+    for (k, (truth, seen)) in test.poses.iter().zip(&changed).enumerate() {
+        let truth = &truth.pose;
+        let back = d.unmap_pose(&seen.pose, pass.s_mm[k]);
+        let off = (back.translation.vector - truth.translation.vector).norm();
+        assert!(off < 0.01, "frame {k}: {off} mm");
+        assert!(back.rotation.angle_to(&truth.rotation) < 1e-6);
+        moved_by = moved_by.max((seen.pose.translation.vector - truth.translation.vector).norm());
+    }
+    assert!(
+        moved_by > 1.0,
+        "the change moves the test pass ({moved_by} mm)"
+    );
+}

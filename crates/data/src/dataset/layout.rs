@@ -10,6 +10,11 @@ pub const UNITS: &str = "mm";
 pub const META_FILE: &str = "dataset.toml";
 /// File name of a sequence's trajectory.
 pub const POSES_FILE: &str = "poses.txt";
+/// File name of a sequence's poses in a *changed* colon, beside `poses.txt` (TUM, mm): when
+/// the colon moved between the passes (a simulated test pass through a deformed colon),
+/// `poses.txt` holds each frame's anatomical pose — in the colon as it was mapped, what a
+/// localizer should output — and this file the pose the frame was taken from.
+pub const CHANGED_POSES_FILE: &str = "poses_changed.txt";
 /// File name of a sequence's per-frame anatomical labels.
 pub const SECTIONS_FILE: &str = "sections.csv";
 /// Folder of a sequence's images.

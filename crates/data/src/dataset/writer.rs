@@ -356,6 +356,25 @@ impl SequenceWriter {
         Ok(())
     }
 
+    /// Writes a further trajectory of the sequence as TUM file `file` (a plain file name such
+    /// as [`CHANGED_POSES_FILE`](crate::CHANGED_POSES_FILE)); `poses.txt` is written by
+    /// [`SequenceWriter::finish`].
+    ///
+    /// # Errors
+    /// [`DataError::Invalid`] for a path-like name, `poses.txt`, or a non-finite pose;
+    /// [`DataError::Io`].
+    pub fn write_trajectory(&self, file: &str, poses: &[StampedPose]) -> Result<(), DataError> {
+        if file.is_empty() || file.contains(['/', '\\', ':']) || file == POSES_FILE {
+            return Err(DataError::invalid(
+                self.final_dir.join(file),
+                format!(
+                    "trajectory file {file:?}: expected a plain file name other than {POSES_FILE}"
+                ),
+            ));
+        }
+        write_tum(&self.dir.join(file), poses).map_err(|e| e.relocated(&self.dir, &self.final_dir))
+    }
+
     /// Number of distinct frames whose image has been written so far.
     pub fn frames_written(&self) -> usize {
         lock(&self.frames).images.len()

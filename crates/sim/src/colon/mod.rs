@@ -69,41 +69,8 @@ impl SurfaceMesh {
         for c in 1..=n_chunks {
             chunk_tri_start[c] = chunk_tri_start[c].max(chunk_tri_start[c - 1]);
         }
-        let mut normals = vec![Vector3::<f64>::zeros(); positions.len()];
-        for t in &triangles {
-            let [a, b, c] = t.map(|v| positions[v as usize]);
-            let n = (b - a).cross(&(c - a)); // area-weighted
-            for &v in t {
-                normals[v as usize] += n;
-            }
-        }
-        let normals = normals
-            .iter()
-            .enumerate()
-            .map(|(i, n)| {
-                let len = n.norm();
-                if len < 1e-12 {
-                    return Vector3::zeros();
-                }
-                let mut n = n / len;
-                if n.dot(&(inward_hint(i) - positions[i])) < 0.0 {
-                    n = -n;
-                }
-                n.cast::<f32>()
-            })
-            .collect();
-        let triangle_bounds = triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|v| positions[v as usize]);
-                let centre = Point3::from((a.coords + b.coords + c.coords) / 3.0);
-                let r = [a, b, c]
-                    .iter()
-                    .map(|p| (p - centre).norm())
-                    .fold(0.0, f64::max);
-                (centre, r)
-            })
-            .collect();
+        let normals = vertex_normals(&positions, &triangles, inward_hint);
+        let triangle_bounds = triangle_bounds(&positions, &triangles);
         SurfaceMesh {
             positions,
             normals,
@@ -114,6 +81,30 @@ impl SurfaceMesh {
             chunk_tri_start,
             chunk_vertex_range,
             triangle_bounds,
+        }
+    }
+
+    /// The same surface with its vertices moved to `positions` (same order, same surface
+    /// coordinates and chunks): normals and triangle bounds recomputed, normals oriented
+    /// towards `inward_hint(vertex)`.
+    ///
+    /// # Panics
+    /// If `positions` does not have one position per vertex.
+    pub fn with_positions(
+        &self,
+        positions: Vec<Point3<f64>>,
+        inward_hint: impl Fn(usize) -> Point3<f64>,
+    ) -> Self {
+        assert_eq!(
+            positions.len(),
+            self.positions.len(),
+            "one position per vertex"
+        );
+        SurfaceMesh {
+            normals: vertex_normals(&positions, &self.triangles, inward_hint),
+            triangle_bounds: triangle_bounds(&positions, &self.triangles),
+            positions,
+            ..self.clone()
         }
     }
 
@@ -155,6 +146,54 @@ impl SurfaceMesh {
             lo as usize..hi as usize + 1
         }
     }
+}
+
+/// Unit vertex normals, area-weighted over the faces, oriented towards `inward_hint(vertex)`;
+/// zero for a vertex of no face.
+fn vertex_normals(
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+    inward_hint: impl Fn(usize) -> Point3<f64>,
+) -> Vec<Vector3<f32>> {
+    let mut normals = vec![Vector3::<f64>::zeros(); positions.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|v| positions[v as usize]);
+        let n = (b - a).cross(&(c - a)); // area-weighted
+        for &v in t {
+            normals[v as usize] += n;
+        }
+    }
+    normals
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let len = n.norm();
+            if len < 1e-12 {
+                return Vector3::zeros();
+            }
+            let mut n = n / len;
+            if n.dot(&(inward_hint(i) - positions[i])) < 0.0 {
+                n = -n;
+            }
+            n.cast::<f32>()
+        })
+        .collect()
+}
+
+/// Bounding sphere (centroid, radius) of every triangle.
+fn triangle_bounds(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> Vec<(Point3<f64>, f64)> {
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| positions[v as usize]);
+            let centre = Point3::from((a.coords + b.coords + c.coords) / 3.0);
+            let r = [a, b, c]
+                .iter()
+                .map(|p| (p - centre).norm())
+                .fold(0.0, f64::max);
+            (centre, r)
+        })
+        .collect()
 }
 
 /// A tube around a mid-line: rings every `ring_step_mm` (and a last one exactly at the end),

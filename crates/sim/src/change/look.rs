@@ -1,0 +1,218 @@
+//! The test pass's light, exposure, bubbles and optics, prepared for the renderer.
+//!
+//! - Light: power and specular scaled, the LED's cosine beam raised to `beam_exponent`, a
+//!   broad wet sheen added (see [`crate::render`]'s shading).
+//! - Exposure: a gain drifting slowly over the pass between the two ends of its range
+//!   (periods of 100–600 frames), a white balance, and a gamma folded into the display curve.
+//! - Bubbles: frames come in episodes of [`EPISODE_FRAMES`]; an episode has bubbles with
+//!   probability `bubble_frames`: a cluster of bubbles near the lens, drifting across the
+//!   episode, covering up to `bubble_cover` of the frame — translucent films with bright rims
+//!   and a specular dot, lit by the scope's light and fixed to no wall point.
+//! - Defocus: a Gaussian blur of the linear image.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::{LookChange, ScopeChange};
+use crate::appearance::splitmix64;
+use crate::trajectory::Wave;
+
+/// Frames per bubble episode.
+pub const EPISODE_FRAMES: usize = 12;
+
+/// One bubble in pixels of the output image.
+#[derive(Debug, Clone, Copy)]
+struct Bubble {
+    x: f32,
+    y: f32,
+    r: f32,
+}
+
+/// The test pass's look, ready for [`crate::render::Renderer::with_look`].
+#[derive(Debug, Clone)]
+pub struct ChangedLook {
+    pub(crate) light_power: f32,
+    pub(crate) beam_exponent: f32,
+    pub(crate) specular: f32,
+    pub(crate) sheen: f32,
+    pub(crate) white_balance: [f32; 3],
+    pub(crate) gamma: f64,
+    log_gain: [f64; 2],
+    gain_wave: Wave,
+    bubble_frames: f64,
+    bubble_cover: f64,
+    defocus_px: f64,
+    seed: u64,
+}
+
+impl ChangedLook {
+    /// Prepares `look` and `scope` with the change's `seed`.
+    pub fn new(look: &LookChange, scope: &ScopeChange, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        ChangedLook {
+            light_power: look.light_power as f32,
+            beam_exponent: look.beam_exponent as f32,
+            specular: look.specular as f32,
+            sheen: look.sheen as f32,
+            white_balance: look.white_balance.map(|w| w as f32),
+            gamma: look.gamma,
+            log_gain: look.gain.map(f64::ln),
+            gain_wave: Wave::new(&mut rng, 1.0 / 600.0, 1.0 / 100.0),
+            bubble_frames: look.bubble_frames,
+            bubble_cover: look.bubble_cover,
+            defocus_px: scope.defocus_px,
+            seed: rng.random(),
+        }
+    }
+
+    /// Exposure gain of frame `frame`.
+    pub fn gain_at(&self, frame: usize) -> f32 {
+        let [lo, hi] = self.log_gain;
+        let t = 0.5 + 0.5 * self.gain_wave.at(frame as f64);
+        (lo + (hi - lo) * t).exp() as f32
+    }
+
+    fn uniform(&self, key: u64) -> f64 {
+        (splitmix64(self.seed ^ key) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// The bubbles of frame `frame` in a `w × h` image (none for most frames).
+    fn bubbles(&self, frame: usize, w: usize, h: usize) -> Vec<Bubble> {
+        let episode = (frame / EPISODE_FRAMES) as u64;
+        let key = episode.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        if self.bubble_frames <= 0.0 || self.uniform(key) >= self.bubble_frames {
+            return Vec::new();
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(splitmix64(self.seed ^ key ^ 0xB0B));
+        let (wf, hf) = (w as f32, h as f32);
+        let area = wf * hf;
+        let cover = self.bubble_cover as f32 * rng.random_range(0.4..1.0f32);
+        let cluster_r = (cover * area / std::f32::consts::PI).sqrt();
+        let cx = rng.random_range(0.2..0.8f32) * wf;
+        let cy = rng.random_range(0.2..0.8f32) * hf;
+        let drift = (
+            rng.random_range(-1.0..1.0f32) * 0.01 * wf,
+            rng.random_range(-1.0..1.0f32) * 0.01 * hf,
+        );
+        let step = (frame % EPISODE_FRAMES) as f32;
+        let (cx, cy) = (cx + drift.0 * step, cy + drift.1 * step);
+        let mut bubbles = Vec::new();
+        let mut covered = 0.0;
+        while covered < cover * area && bubbles.len() < 200 {
+            let r = rng.random_range(0.015..0.07f32) * wf.min(hf);
+            let a = rng.random_range(0.0..std::f32::consts::TAU);
+            let d = cluster_r * rng.random::<f32>().sqrt();
+            bubbles.push(Bubble {
+                x: cx + d * a.cos(),
+                y: cy + d * a.sin(),
+                r,
+            });
+            covered += std::f32::consts::PI * r * r;
+        }
+        bubbles
+    }
+
+    /// Draws frame `frame`'s bubbles into a linear RGB image (`w × h × 3`).
+    pub(crate) fn draw_bubbles(&self, linear: &mut [f32], w: usize, h: usize, frame: usize) {
+        for b in self.bubbles(frame, w, h) {
+            let (x0, x1) = (
+                (b.x - b.r).floor().max(0.0),
+                (b.x + b.r).ceil().min(w as f32 - 1.0),
+            );
+            let (y0, y1) = (
+                (b.y - b.r).floor().max(0.0),
+                (b.y + b.r).ceil().min(h as f32 - 1.0),
+            );
+            if x0 > x1 || y0 > y1 {
+                continue;
+            }
+            let (hx, hy, hr) = (b.x - 0.35 * b.r, b.y - 0.35 * b.r, 0.2 * b.r);
+            for y in y0 as usize..=y1 as usize {
+                for x in x0 as usize..=x1 as usize {
+                    let (dx, dy) = (x as f32 - b.x, y as f32 - b.y);
+                    let d = (dx * dx + dy * dy).sqrt() / b.r;
+                    if d >= 1.0 {
+                        continue;
+                    }
+                    let rim = ((d - 0.8) / 0.2).clamp(0.0, 1.0);
+                    let (ex, ey) = (x as f32 - hx, y as f32 - hy);
+                    let spot = (1.0 - (ex * ex + ey * ey).sqrt() / hr).max(0.0);
+                    let add = 0.08 + 0.9 * rim * rim + 2.5 * spot * spot;
+                    let keep = 0.7 - 0.3 * rim;
+                    for c in 0..3 {
+                        let v = &mut linear[3 * (y * w + x) + c];
+                        *v = *v * keep + add;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Blurs a linear RGB image (`w × h × 3`) by the defocus, if any.
+    pub(crate) fn defocus(&self, linear: &mut [f32], w: usize, h: usize) {
+        let sigma = self.defocus_px;
+        if sigma <= 0.0 {
+            return;
+        }
+        let radius = (3.0 * sigma).ceil() as isize;
+        let kernel: Vec<f32> = (-radius..=radius)
+            .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32)
+            .collect();
+        let sum: f32 = kernel.iter().sum();
+        let kernel: Vec<f32> = kernel.iter().map(|k| k / sum).collect();
+        let mut tmp = vec![0f32; linear.len()];
+        let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+        for y in 0..h {
+            for x in 0..w {
+                let mut acc = [0f32; 3];
+                for (k, wk) in kernel.iter().enumerate() {
+                    let xx = clamp(x as isize + k as isize - radius, w);
+                    for (c, a) in acc.iter_mut().enumerate() {
+                        *a += wk * linear[3 * (y * w + xx) + c];
+                    }
+                }
+                tmp[3 * (y * w + x)..3 * (y * w + x) + 3].copy_from_slice(&acc);
+            }
+        }
+        for y in 0..h {
+            for x in 0..w {
+                let mut acc = [0f32; 3];
+                for (k, wk) in kernel.iter().enumerate() {
+                    let yy = clamp(y as isize + k as isize - radius, h);
+                    for (c, a) in acc.iter_mut().enumerate() {
+                        *a += wk * tmp[3 * (yy * w + x) + c];
+                    }
+                }
+                linear[3 * (y * w + x)..3 * (y * w + x) + 3].copy_from_slice(&acc);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::change::{ChangeConfig, Severity};
+
+    #[test]
+    fn gain_stays_in_its_range_and_bubbles_come_in_the_asked_share_of_frames() {
+        let cfg = ChangeConfig::preset(Severity::Severe);
+        let look = ChangedLook::new(&cfg.look, &cfg.scope, 3);
+        let [lo, hi] = cfg.look.gain;
+        let gains: Vec<f32> = (0..3000).map(|f| look.gain_at(f)).collect();
+        assert!(
+            gains
+                .iter()
+                .all(|g| *g as f64 >= lo - 1e-6 && *g as f64 <= hi + 1e-6)
+        );
+        let spread =
+            gains.iter().fold(0f32, |m, g| m.max(*g)) / gains.iter().fold(9f32, |m, g| m.min(*g));
+        assert!(spread > 1.5, "the gain drifts: {spread}");
+        let frames = 12_000;
+        let with = (0..frames)
+            .filter(|f| !look.bubbles(*f, 64, 48).is_empty())
+            .count();
+        let share = with as f64 / frames as f64;
+        assert!((share - cfg.look.bubble_frames).abs() < 0.04, "{share}");
+    }
+}
