@@ -52,6 +52,7 @@ def simulate(
     field_stop: float | None = ...,
     black_border: int | None = ...,
     clearance: float | None = ...,
+    changes: Literal["none", "mild", "moderate", "severe"] | None = ...,
     out: StrPath = ...,
     force: bool = ...,
     progress: ProgressArg = None,
@@ -90,6 +91,8 @@ def simulate(
       (0 = none); the dataset then gets the renderer's mask.
     - ``black_border``: Black columns on the left and right of every frame, pixels.
     - ``clearance``: Smallest distance kept between the lens and the colon wall, mm.
+    - ``changes``: How the colon changes between the training and the test pass (shape,
+      look, scope); the test pass's ``poses.txt`` holds the anatomical poses.
     - ``out``: Output dataset folder.
     - ``force``: Replace an existing output folder.
     """
@@ -310,6 +313,7 @@ def eval(
     rpe_delta: int = ...,
     rpe_all_pairs: bool = ...,
     no_plots: bool = ...,
+    midline: StrPath | None = ...,
     progress: ProgressArg = None,
 ) -> Report:
     """Errors of an estimated trajectory against the truth (``endoloc eval``); ``report.metrics`` is ``metrics.json``.
@@ -332,6 +336,8 @@ def eval(
     - ``rpe_all_pairs``: RPE over every pair (i, i + delta) instead of consecutive
       pairs.
     - ``no_plots``: Do not draw the PNG plots.
+    - ``midline``: The colon's mid-line for the error along the colon (default: the
+      dataset's ``midline.txt``, else its training pass).
     """
     ...
 

@@ -28,8 +28,8 @@ pub use centerline::{
 };
 pub use check::{CheckReport, Problem, check_dataset};
 pub use dataset::{
-    CHANGED_POSES_FILE, Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, MASK_FILE, Sequence,
-    SequenceWriter, black_outside, mask_from_png, write_dataset_mask,
+    CHANGED_POSES_FILE, Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, MASK_FILE,
+    MIDLINE_FILE, Sequence, SequenceWriter, black_outside, mask_from_png, write_dataset_mask,
 };
 pub use error::{DataError, toml_error_line};
 pub use fingerprint::{Fingerprint, poses_fingerprint};

@@ -16,6 +16,7 @@
 #![warn(missing_docs)]
 
 pub mod align;
+pub mod along;
 pub mod ape;
 pub mod association;
 pub mod error;
@@ -42,6 +43,7 @@ pub mod zones_csv;
 mod config_tests;
 
 pub use align::{AlignmentKind, Similarity3, align_trajectory, umeyama};
+pub use along::Midline;
 pub use ape::{PoseRelation, ape_errors};
 pub use association::{Association, AssociationConfig, MatchedPair, associate};
 pub use error::EvalError;

@@ -25,6 +25,7 @@ use std::collections::{BTreeMap, VecDeque};
 use std::path::PathBuf;
 
 use endoloc_geometry::{Pose, Status};
+use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
 use crate::EvalError;
@@ -59,10 +60,11 @@ pub struct EvalConfig {
     pub rpe: RpeConfig,
 }
 
-/// The errors of one associated pair (APE) or one RPE pair, with the status of its frame.
+/// The errors of one associated pair (APE), one RPE pair or one error along the colon, with
+/// the status of its frame.
 #[derive(Debug, Clone, Copy)]
 struct PairError {
-    /// APE (0) or RPE (1).
+    /// APE (0), RPE (1) or along the colon (2, in `position`).
     kind: u8,
     status: u8,
     position: f64,
@@ -214,6 +216,16 @@ pub struct Metrics {
     pub zone_source: Option<ZoneSource>,
     /// Per-zone table.
     pub per_zone: Vec<ZoneRow>,
+    /// Error along the colon over the associated poses: mm of mid-line between the nearest
+    /// mid-line points of the estimate and of the truth (`None` without a mid-line).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub along_colon_mm: Option<Statistics>,
+    /// The same over the refined frames only (`None` without a mid-line or `frames.csv`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub along_colon_refined_mm: Option<Statistics>,
+    /// Where the mid-line came from (the dataset's, or the training pass standing in).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub midline: Option<String>,
     /// Association details.
     pub association: AssociationSummary,
     /// Alignment details.
@@ -443,6 +455,7 @@ fn evaluate_source(src: &dyn EvalSource, config: &EvalConfig) -> Result<Evaluati
         None
     };
     let mut plots = PlotCollector::new(n);
+    let midline = src.midline();
 
     let mut gt_rows = src.gt()?;
     let mut pairs = PairStream::new(
@@ -489,6 +502,15 @@ fn evaluate_source(src: &dyn EvalSource, config: &EvalConfig) -> Result<Evaluati
                 position: pos,
                 orientation: rot,
             })?;
+            if let Some(m) = midline {
+                let at = |pose: &Pose| Point3::from(pose.translation.vector);
+                pair_spill.push(&PairError {
+                    kind: 2,
+                    status: status_code(status),
+                    position: m.along_error_mm(&at(&est), &at(&p.gt)),
+                    orientation: 0.0,
+                })?;
+            }
             if last_est != Some(p.est_index) {
                 distinct_est += 1;
                 last_est = Some(p.est_index);
@@ -568,16 +590,23 @@ fn evaluate_source(src: &dyn EvalSource, config: &EvalConfig) -> Result<Evaluati
     }
 
     // Exact statistics, streamed back from the records: groups 0/1 all pairs, 2..8 per
-    // status, 8/9 RPE, then two per zone.
+    // status, 8/9 RPE, 10/11 along the colon (all, refined), then two per zone.
     let zone_groups: BTreeMap<usize, usize> = per_zone
         .keys()
         .enumerate()
-        .map(|(k, &z)| (z, 10 + 2 * k))
+        .map(|(k, &z)| (z, 12 + 2 * k))
         .collect();
-    let mut wants = vec![Want::Full; 10];
+    let mut wants = vec![Want::Full; 12];
     wants.extend(std::iter::repeat_n(Want::MeanMedian, 2 * zone_groups.len()));
     let summaries: Vec<GroupSummary> = summarise(&wants, &mut |emit| {
         pair_spill.for_each(|p| {
+            if p.kind == 2 {
+                emit(10, p.position);
+                if status_of(p.status) == Some(Status::Refined) {
+                    emit(11, p.position);
+                }
+                return Ok(());
+            }
             let base = if p.kind == 1 {
                 8
             } else {
@@ -673,6 +702,17 @@ fn evaluate_source(src: &dyn EvalSource, config: &EvalConfig) -> Result<Evaluati
         by_status,
         zone_source,
         per_zone,
+        along_colon_mm: match midline {
+            Some(_) => Some(summaries[10].statistics("along the colon")?),
+            None => None,
+        },
+        along_colon_refined_mm: match midline {
+            Some(_) if summaries[11].count > 0 => {
+                Some(summaries[11].statistics("refined, along the colon")?)
+            }
+            _ => None,
+        },
+        midline: midline.map(|m| m.source().to_string()),
         association: AssociationSummary {
             config: config.association,
             gt_poses: n,

@@ -103,6 +103,18 @@ pub fn render_report(metrics: &Metrics, sources: &Sources, plots: &[PlotRef]) ->
     s.push_str(STATS_HEADER);
     s.push_str(&stats_row("position (mm)", &m.position_mm));
     s.push_str(&stats_row("orientation (°)", &m.orientation_deg));
+    if let Some(a) = &m.along_colon_mm {
+        s.push_str(&stats_row("along the colon (mm)", a));
+    }
+    if let Some(a) = &m.along_colon_refined_mm {
+        s.push_str(&stats_row("along the colon, refined (mm)", a));
+    }
+    if let Some(src) = &m.midline {
+        let _ = write!(
+            s,
+            "\nAlong the colon: mm of mid-line between the mid-line points nearest to the estimate and to the truth (mid-line: {src}).\n"
+        );
+    }
     s.push('\n');
 
     if let Some(r) = &m.rpe {

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use endoloc_data::{StampedPose, TumReader};
 
 use crate::EvalError;
+use crate::along::Midline;
 use crate::frames_csv::{FrameRecord, FramesCsvReader};
 use crate::zones_csv::{ZoneLabel, ZonesCsvReader};
 
@@ -29,6 +30,10 @@ pub trait EvalSource {
     /// Where per-frame records are kept between passes: a folder for unnamed temporary files,
     /// or `None` for memory.
     fn scratch_dir(&self) -> Option<PathBuf> {
+        None
+    }
+    /// The colon's mid-line, for the error along the colon; `None` when unknown.
+    fn midline(&self) -> Option<&Midline> {
         None
     }
     /// How the inputs are named in messages: ground truth, estimate, frames, zones.
@@ -53,6 +58,8 @@ pub struct EvalInputs<'a> {
     pub frames: Option<&'a [FrameRecord]>,
     /// True zones of the test frames, if known.
     pub gt_zones: Option<&'a [ZoneLabel]>,
+    /// The colon's mid-line, if known (enables the error along the colon).
+    pub midline: Option<&'a Midline>,
 }
 
 fn rows<'a, T: Clone + 'a>(v: &'a [T]) -> Rows<'a, T> {
@@ -72,6 +79,9 @@ impl EvalSource for EvalInputs<'_> {
     fn gt_zones(&self) -> Option<Result<Rows<'_, ZoneLabel>, EvalError>> {
         self.gt_zones.map(|z| Ok(rows(z)))
     }
+    fn midline(&self) -> Option<&Midline> {
+        self.midline
+    }
 }
 
 /// What is evaluated, as files read line by line on every pass.
@@ -88,6 +98,8 @@ pub struct EvalFiles {
     /// Folder for the unnamed temporary files that hold per-frame records between passes
     /// (`None`: the system's temporary folder).
     pub scratch_dir: Option<PathBuf>,
+    /// The colon's mid-line, if known (enables the error along the colon).
+    pub midline: Option<Midline>,
 }
 
 fn tum(path: &Path) -> Result<Rows<'static, StampedPose>, EvalError> {
@@ -115,6 +127,9 @@ impl EvalSource for EvalFiles {
     }
     fn scratch_dir(&self) -> Option<PathBuf> {
         Some(self.scratch_dir.clone().unwrap_or_else(std::env::temp_dir))
+    }
+    fn midline(&self) -> Option<&Midline> {
+        self.midline.as_ref()
     }
     fn names(&self) -> [String; 4] {
         let show = |p: &Path| p.display().to_string();

@@ -95,6 +95,7 @@ fn metrics_have_the_design_fields_and_sensible_values() {
             est: &run.est,
             frames: Some(&run.frames),
             gt_zones: Some(&run.zones),
+            midline: None,
         },
         &EvalConfig::default(),
     )
@@ -163,6 +164,7 @@ fn outputs_are_written_once_and_plots_render_with_and_without_text() {
             est: &run.est,
             frames: Some(&run.frames),
             gt_zones: None,
+            midline: None,
         },
         &EvalConfig::default(),
     )

@@ -83,6 +83,7 @@ fn files(dir: &Path) -> EvalFiles {
         frames: Some(dir.join("frames.csv")),
         gt_zones: Some(dir.join("zones.csv")),
         scratch_dir: Some(dir.to_path_buf()),
+        midline: None,
     }
 }
 
@@ -116,6 +117,7 @@ fn files_read_line_by_line_give_exactly_the_in_memory_evaluation() {
                 est: &est,
                 frames: Some(&rows),
                 gt_zones: Some(&zones),
+                midline: None,
             },
             &config,
         )

@@ -551,6 +551,7 @@ pub(super) fn write_and_evaluate(
             est: &est,
             frames: frames.as_deref(),
             gt_zones: None,
+            midline: None,
         },
         &EvalConfig::default(),
     )

@@ -3,13 +3,13 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use endoloc_data::TumReader;
+use endoloc_data::{MIDLINE_FILE, TumReader};
 use endoloc_eval::align::AlignmentKind;
 use endoloc_eval::association::AssociationConfig;
 use endoloc_eval::rpe::RpeConfig;
 use endoloc_eval::{
-    EvalConfig, EvalFiles, FramesCsvReader, Metrics, Sources, WriteOptions, ZonesCsvReader,
-    evaluate_files, write_results,
+    EvalConfig, EvalFiles, FramesCsvReader, Metrics, Midline, Sources, WriteOptions,
+    ZonesCsvReader, evaluate_files, write_results,
 };
 use serde::{Deserialize, Serialize};
 
@@ -72,6 +72,11 @@ pub struct EvalJob {
     /// Do not draw the PNG plots.
     #[cfg_attr(feature = "cli", arg(long))]
     pub no_plots: bool,
+    /// The colon's mid-line for the error along the colon (`x y z` per line, mm, anus →
+    /// caecum). Default: the dataset's midline.txt beside the ground truth's sequence folder,
+    /// else the dataset's training pass standing in for it.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "FILE"))]
+    pub midline: Option<PathBuf>,
 }
 
 /// The names of the alignments, as in the job's TOML table.
@@ -119,6 +124,7 @@ impl Default for EvalJob {
             rpe_delta: cfg.rpe.delta_frames,
             rpe_all_pairs: cfg.rpe.all_pairs,
             no_plots: false,
+            midline: None,
         }
     }
 }
@@ -166,6 +172,39 @@ impl EvalJob {
         }
     }
 
+    /// The colon's mid-line for the error along the colon: `midline`; else the dataset's
+    /// `midline.txt` beside the ground truth's sequence folder; else that dataset's training
+    /// pass standing in for it; else none.
+    ///
+    /// # Errors
+    /// An unreadable or malformed mid-line or training trajectory.
+    pub fn resolve_midline(&self) -> Result<Option<Midline>> {
+        if let Some(p) = &self.midline {
+            return Ok(Some(
+                Midline::from_file(p).context("reading the mid-line (`midline`)")?,
+            ));
+        }
+        let Some(dataset) = self.gt.parent().and_then(Path::parent) else {
+            return Ok(None);
+        };
+        let file = dataset.join(MIDLINE_FILE);
+        if file.is_file() {
+            return Ok(Some(
+                Midline::from_file(&file).context("reading the dataset's mid-line")?,
+            ));
+        }
+        let train = dataset.join("train").join("poses.txt");
+        if dataset.join("dataset.toml").is_file() && train.is_file() && train != self.gt {
+            let poses = endoloc_data::read_tum(&train).context("reading the training pass")?;
+            let source = format!(
+                "the training pass {} (the dataset has no {MIDLINE_FILE})",
+                train.display()
+            );
+            return Ok(Some(Midline::from_trajectory(&poses, source)?));
+        }
+        Ok(None)
+    }
+
     /// Evaluates and writes the results.
     ///
     /// # Errors
@@ -193,6 +232,7 @@ impl EvalJob {
             let zones = || -> Checked { ZonesCsvReader::open(p)?.try_for_each(|r| r.map(drop)) };
             zones().context("reading the ground-truth zones (`gt_zones`)")?;
         }
+        let midline = self.resolve_midline()?;
         let out = self.out_dir();
         // Written next to `out` first, then moved in together: a killed run leaves the
         // earlier results as they were.
@@ -204,6 +244,7 @@ impl EvalJob {
                 frames: frames_path.clone(),
                 gt_zones: self.gt_zones.clone(),
                 scratch_dir: Some(staged.dir().to_path_buf()),
+                midline,
             },
             &self.eval_config(),
         )
@@ -281,6 +322,13 @@ impl fmt::Display for EvalReport {
                 f,
                 "{:>14}: {:.3} mm  {:.3}° (rmse, delta {} frames)",
                 "RPE", r.translation_mm.rmse, r.rotation_deg.rmse, r.delta_frames
+            )?;
+        }
+        if let Some(a) = &m.along_colon_mm {
+            writeln!(
+                f,
+                "{:>14}: mean {:.3}  median {:.3}  p90 {:.3}  max {:.3} (mm of mid-line)",
+                "along colon", a.mean, a.median, a.p90, a.max
             )?;
         }
         if let Some(acc) = m.zone_accuracy {

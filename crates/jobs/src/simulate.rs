@@ -375,6 +375,10 @@ mod tests {
         let report = eval.run(&crate::Silent).unwrap();
         assert_eq!(report.metrics.localized, 12);
         assert!(report.metrics.position_mm.max < 1e-9);
+        // The dataset's mid-line is found beside the ground truth.
+        let midline = report.metrics.midline.as_deref().unwrap_or_default();
+        assert!(midline.contains("midline.txt"), "{midline}");
+        assert!(report.metrics.along_colon_mm.unwrap().max < 1e-9);
         assert!(tmp.path().join("eval/metrics.json").is_file());
     }
 }

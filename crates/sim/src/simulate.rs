@@ -105,6 +105,7 @@ pub fn simulate(
     for note in &colon.notes {
         progress(Progress::Note(note));
     }
+    writer.write_midline(&colon.centerline.points)?;
     progress(Progress::Stage("texture"));
     let atlas = MucosaAtlas::bake(&colon, &cfg.appearance)?;
     progress(Progress::Stage("passes"));

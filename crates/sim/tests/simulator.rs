@@ -485,7 +485,14 @@ fn an_unchanged_colon_gives_the_same_bytes_and_a_changed_one_keeps_anatomical_po
     let none = tmp.path().join("none");
     endoloc_sim::simulate(&micro_config(Severity::None), &none, false, &|_| {}).unwrap();
     // The hash of this dataset as the simulator wrote it before colons could change.
-    assert_eq!(folder_hash(&none, &[]), 0x7814_96fa_557d_d78b);
+    // (The mid-line file is new beside them.)
+    assert_eq!(folder_hash(&none, &["midline.txt"]), 0x7814_96fa_557d_d78b);
+    let midline = endoloc_data::read_path(&none.join("midline.txt")).unwrap();
+    assert!(
+        midline.len() > 1000,
+        "a point per mm of a colon: {}",
+        midline.len()
+    );
 
     let cfg = micro_config(Severity::Moderate);
     let moved = tmp.path().join("moderate");

@@ -15,6 +15,10 @@ pub const POSES_FILE: &str = "poses.txt";
 /// `poses.txt` holds each frame's anatomical pose — in the colon as it was mapped, what a
 /// localizer should output — and this file the pose the frame was taken from.
 pub const CHANGED_POSES_FILE: &str = "poses_changed.txt";
+/// File name of the colon's mid-line at the dataset's root: one point `x y z` (mm, world
+/// frame) per line from the anus to the caecum, `#` comments. In a dataset whose colon changed
+/// between the passes, the mid-line of the colon as mapped (the frame of every `poses.txt`).
+pub const MIDLINE_FILE: &str = "midline.txt";
 /// File name of a sequence's per-frame anatomical labels.
 pub const SECTIONS_FILE: &str = "sections.csv";
 /// Folder of a sequence's images.

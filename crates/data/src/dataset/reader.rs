@@ -88,6 +88,12 @@ impl Dataset {
         self.meta.mask.as_ref().map(|m| self.root.join(m))
     }
 
+    /// The colon's mid-line file ([`MIDLINE_FILE`](crate::MIDLINE_FILE)), when the dataset
+    /// has one (simulated datasets do).
+    pub fn midline_path(&self) -> Option<PathBuf> {
+        Some(self.root.join(crate::MIDLINE_FILE)).filter(|p| p.is_file())
+    }
+
     /// The image mask (`[camera] mask`): 8-bit, the camera's size, non-zero = valid; `None`
     /// when the dataset has none.
     ///

@@ -11,7 +11,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use super::layout::{DEPTH_DIR, IMAGES_DIR, MASK_FILE, META_FILE, POSES_FILE, SECTIONS_FILE};
+use super::layout::{
+    DEPTH_DIR, IMAGES_DIR, MASK_FILE, META_FILE, MIDLINE_FILE, POSES_FILE, SECTIONS_FILE,
+};
 use super::mask::{check_mask, write_mask_png};
 use super::meta::DatasetMeta;
 
@@ -157,6 +159,35 @@ impl DatasetWriter {
             .map_err(|e| e.relocated(&self.shared.staging, &self.dir))?;
         self.meta.mask = Some(MASK_FILE.to_string());
         Ok(())
+    }
+
+    /// Writes the colon's mid-line as [`MIDLINE_FILE`]: `points` in the world frame, mm, from
+    /// the anus to the caecum.
+    ///
+    /// # Errors
+    /// [`DataError::Invalid`] for fewer than two points or a non-finite one; [`DataError::Io`].
+    pub fn write_midline(&mut self, points: &[nalgebra::Point3<f64>]) -> Result<(), DataError> {
+        let path = self.shared.staging.join(MIDLINE_FILE);
+        if points.len() < 2 {
+            return Err(DataError::invalid(
+                self.dir.join(MIDLINE_FILE),
+                format!("{} mid-line points; expected at least 2", points.len()),
+            ));
+        }
+        let mut text = String::from(
+            "# endoloc mid-line, anus to caecum: x y z in mm (world frame), one point per line\n",
+        );
+        for (i, p) in points.iter().enumerate() {
+            if !p.coords.iter().all(|v| v.is_finite()) {
+                return Err(DataError::invalid(
+                    self.dir.join(MIDLINE_FILE),
+                    format!("mid-line point {i} is not finite: {p:?}"),
+                ));
+            }
+            text.push_str(&format!("{:.4} {:.4} {:.4}\n", p.x, p.y, p.z));
+        }
+        write_atomic(&path, text.as_bytes())
+            .map_err(|e| e.relocated(&self.shared.staging, &self.dir))
     }
 
     /// Writes `dataset.toml` and moves the dataset into place at its destination (replacing
