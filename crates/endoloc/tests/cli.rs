@@ -45,9 +45,10 @@ struct Setup {
 }
 
 /// A tiny dataset and a one-epoch model with its map.
-/// The three files of a localization run agree with each other: `frames.csv` lists frames
-/// 0..n in order, `trajectory.txt` has a line per frame with a pose (in frame order), and
-/// `inliers.csv` holds as many keypoints of each refined frame as its `inliers` column.
+/// The files of a localization run agree with each other: `frames.csv` lists frames 0..n in
+/// order, `trajectory.txt` has a line per frame with a pose (in frame order), `inliers.csv`
+/// holds as many keypoints of each refined frame as its `inliers` column, and `along.csv` a
+/// distance along the colon per pose.
 fn check_run_files(run: &Path, n: usize) {
     let read = |f: &str| std::fs::read_to_string(run.join(f)).unwrap();
     let frames = read("frames.csv");
@@ -79,6 +80,21 @@ fn check_run_files(run: &Path, n: usize) {
         .collect();
     assert_eq!(stamps.len(), with_pose, "{trajectory}");
     assert!(stamps.windows(2).all(|w| w[0] < w[1]), "{trajectory}");
+    // The simulated dataset has a mid-line: each pose's distance along the colon.
+    let along = read("along.csv");
+    let rows: Vec<(usize, f64)> = along
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let (f, s) = l.split_once(',').unwrap();
+            (f.parse().unwrap(), s.parse().unwrap())
+        })
+        .collect();
+    assert_eq!(rows.len(), with_pose, "{along}");
+    assert!(
+        rows.iter().all(|(_, s)| (0.0..2000.0).contains(s)),
+        "{along}"
+    );
 }
 
 fn setup() -> Setup {

@@ -57,6 +57,9 @@ impl Default for AppearanceConfig {
     }
 }
 
+/// The gloss of an ordinary texel in [`MucosaAtlas::gloss`] (the specular multiplier × 64).
+pub const GLOSS_ONE: u8 = 64;
+
 /// Per-section look (linear RGB albedo in `[0, 1]`).
 #[derive(Debug, Clone, Copy)]
 struct SectionLook {
@@ -114,8 +117,8 @@ pub struct MucosaAtlas {
     /// Texture contrast multiplier along the colon, one value per row (1 = normal,
     /// ≈0.06 in a textureless stretch).
     pub contrast: Vec<f32>,
-    /// Specular multiplier per texel × 64 (64 = 1×), where something glossy covers the wall
-    /// (fluid in a changed colon, see [`crate::change::cover_atlas`]); `None`: 1 everywhere.
+    /// Specular multiplier per texel × [`GLOSS_ONE`] (64 = 1×), where something glossy
+    /// covers the wall (fluid in a changed colon); `None`: 1 everywhere.
     pub gloss: Option<Vec<u8>>,
 }
 
@@ -248,7 +251,7 @@ impl MucosaAtlas {
         match &self.gloss {
             Some(g) => {
                 let (i00, _, _, _, _, _) = self.corners(s, theta);
-                g[i00] as f32 * (1.0 / crate::change::GLOSS_ONE as f32)
+                g[i00] as f32 * (1.0 / GLOSS_ONE as f32)
             }
             None => 1.0,
         }

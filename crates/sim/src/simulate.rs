@@ -11,7 +11,7 @@ use crate::appearance::{MucosaAtlas, splitmix64};
 use crate::change::{ChangedPass, Deformation};
 use crate::colon::{ColonModel, from_mesh, procedural};
 use crate::config::{ColonSource, SimConfig};
-use crate::render::{RenderScratch, Renderer};
+use crate::render::{RenderConfig, RenderScratch, Renderer};
 use crate::trajectory::{Pass, PassGenerator};
 
 /// What the driver reports while it works (called from worker threads).
@@ -118,7 +118,7 @@ pub fn simulate(
         None
     } else {
         progress(Progress::Stage("changed colon"));
-        let changed = ChangedPass::new(cfg, &colon)?;
+        let changed = ChangedPass::new(&cfg.changes, &cfg.appearance, &colon)?;
         for note in &changed.notes {
             progress(Progress::Note(note));
         }
@@ -130,7 +130,12 @@ pub fn simulate(
                 c.colon.as_ref().unwrap_or(&colon),
                 c.atlas.as_ref().unwrap_or(&atlas),
                 camera,
-                c.render.clone(),
+                RenderConfig {
+                    motion_blur_samples: c
+                        .motion_blur_samples
+                        .unwrap_or(cfg.render.motion_blur_samples),
+                    ..cfg.render.clone()
+                },
             )?
             .with_look(&c.look),
         ),

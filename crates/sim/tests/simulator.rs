@@ -520,7 +520,8 @@ fn an_unchanged_colon_gives_the_same_bytes_and_a_changed_one_keeps_anatomical_po
 
     // poses_changed.txt carried back through the change is the anatomical pose.
     let colon = build_colon(&cfg).unwrap();
-    let change = endoloc_sim::change::ChangedPass::new(&cfg, &colon).unwrap();
+    let change =
+        endoloc_sim::change::ChangedPass::new(&cfg.changes, &cfg.appearance, &colon).unwrap();
     let d = change
         .deformation
         .expect("a moderate change moves the colon");

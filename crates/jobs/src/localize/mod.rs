@@ -254,6 +254,8 @@ pub struct LocalizeReport {
     pub wall_s: f64,
     /// A line from the method (e.g. where VO lost track).
     pub note: Option<String>,
+    /// Whether `along.csv` (each pose's distance along the colon) was written.
+    pub along: bool,
     /// Output folder.
     pub out: PathBuf,
 }
@@ -393,7 +395,16 @@ impl LocalizeJob {
         let t = Instant::now();
         // Rows are written as frames finish, in frame order; nothing of a frame is kept.
         let staged = crate::output::StagedFiles::new(&self.out)?;
-        let mut writer = ResultWriter::create(&staged, &self.out, &seq)?;
+        // Each pose's distance along the colon, when the sequence's dataset has a mid-line.
+        let midline = match dataset.midline_path() {
+            Some(p) => Some(
+                endoloc_eval::Midline::from_file(&p)
+                    .with_context(|| format!("reading the mid-line of {}", self.seq.display()))?,
+            ),
+            None => None,
+        };
+        let along = midline.is_some();
+        let mut writer = ResultWriter::create(&staged, &self.out, &seq, midline)?;
         let mut summary = RunSummary::default();
         let mut with_pose = 0;
         let mut emit = |r: FrameResult| -> Result<()> {
@@ -477,6 +488,7 @@ impl LocalizeJob {
             summary: Some(summary),
             wall_s,
             note: None,
+            along,
             out: self.out.clone(),
         })
     }
@@ -573,6 +585,7 @@ impl LocalizeJob {
             ms_per_frame: est.ms_per_frame,
             wall_s: t.elapsed().as_secs_f64(),
             note: est.note,
+            along: false,
             out: self.out.clone(),
         })
     }
@@ -695,8 +708,9 @@ impl fmt::Display for LocalizeReport {
         writeln!(f, "{summary}; {:.1} s wall", self.wall_s)?;
         write!(
             f,
-            "wrote     {}/trajectory.txt, frames.csv, inliers.csv",
-            self.out.display()
+            "wrote     {}/trajectory.txt, frames.csv, inliers.csv{}",
+            self.out.display(),
+            if self.along { ", along.csv" } else { "" }
         )
     }
 }

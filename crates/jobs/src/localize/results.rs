@@ -1,13 +1,15 @@
-//! The files of a localization run — `trajectory.txt`, `frames.csv`, `inliers.csv` — written
-//! row by row as frames are localized, so that a run's memory does not grow with its length.
+//! The files of a localization run — `trajectory.txt`, `frames.csv`, `inliers.csv` and, with
+//! a mid-line, `along.csv` — written row by row as frames are localized, so that a run's
+//! memory does not grow with its length.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use endoloc_data::{Sequence, StampedPose};
-use endoloc_eval::{FRAMES_CSV_HEADER, FrameRecord, format_frames_csv_row};
+use endoloc_eval::{FRAMES_CSV_HEADER, FrameRecord, Midline, format_frames_csv_row};
 use endoloc_localize::FrameResult;
+use nalgebra::Point3;
 
 use crate::error::{JobError, Result};
 use crate::output::StagedFiles;
@@ -20,6 +22,10 @@ pub const TRAJECTORY_FILE: &str = "trajectory.txt";
 
 /// One row per frame of a localization run (see [`endoloc_eval::frames_csv`]).
 pub const FRAMES_FILE: &str = "frames.csv";
+
+/// Where along the colon each frame with a pose is: header `frame,along_mm`, the arc length
+/// (mm from the anus) of the mid-line point nearest to the estimated camera centre.
+pub const ALONG_FILE: &str = "along.csv";
 
 /// One output file written line by line: buffered, flushed and synced by
 /// [`ResultWriter::finish`]. Errors name `shown`, the path the file will have once
@@ -64,12 +70,14 @@ impl LineFile {
 /// trajectory.txt   TUM `timestamp tx ty tz qx qy qz qw` (T_wc, mm), frames with a pose
 /// frames.csv       frame,zone,zone_score,status,reason,source,inliers,… (every frame)
 /// inliers.csv      frame,x_px,y_px (the inlier keypoints of every frame's final estimate)
+/// along.csv        frame,along_mm (with a mid-line: each pose's distance along the colon)
 /// ```
 #[derive(Debug)]
 pub struct ResultWriter {
     trajectory: LineFile,
     frames: LineFile,
     inliers: LineFile,
+    along: Option<(LineFile, Midline)>,
     /// Timestamps of the sequence's frames, seconds.
     timestamps: Vec<f64>,
     next: usize,
@@ -77,16 +85,29 @@ pub struct ResultWriter {
 }
 
 impl ResultWriter {
-    /// Starts the three files in `staged` for a run over `seq` that will be published into
-    /// `dest` (named in errors).
+    /// Starts the files in `staged` for a run over `seq` that will be published into `dest`
+    /// (named in errors); `along.csv` too when the colon's `midline` is known.
     ///
     /// # Errors
     /// A file that cannot be created.
-    pub fn create(staged: &StagedFiles, dest: &Path, seq: &Sequence) -> Result<Self> {
+    pub fn create(
+        staged: &StagedFiles,
+        dest: &Path,
+        seq: &Sequence,
+        midline: Option<Midline>,
+    ) -> Result<Self> {
+        let along = match midline {
+            Some(m) => Some((
+                LineFile::create(staged, dest, ALONG_FILE, "frame,along_mm\n")?,
+                m,
+            )),
+            None => None,
+        };
         Ok(ResultWriter {
             trajectory: LineFile::create(staged, dest, TRAJECTORY_FILE, endoloc_data::TUM_HEADER)?,
             frames: LineFile::create(staged, dest, FRAMES_FILE, &format!("{FRAMES_CSV_HEADER}\n"))?,
             inliers: LineFile::create(staged, dest, INLIERS_FILE, "frame,x_px,y_px\n")?,
+            along,
             timestamps: seq.poses.iter().map(|p| p.timestamp_s).collect(),
             next: 0,
             line: String::with_capacity(256),
@@ -126,6 +147,10 @@ impl ResultWriter {
                     ))
                 })?;
             self.trajectory.write(&self.line)?;
+            if let Some((file, midline)) = &mut self.along {
+                let s = midline.arc_length_at(&Point3::from(pose.translation.vector));
+                file.write(&format!("{i},{s:.2}\n"))?;
+            }
         }
         self.line.clear();
         format_frames_csv_row(&frame_record(i, r), &mut self.line)
@@ -154,6 +179,9 @@ impl ResultWriter {
         }
         self.trajectory.finish()?;
         self.frames.finish()?;
+        if let Some((file, _)) = self.along {
+            file.finish()?;
+        }
         self.inliers.finish()
     }
 }

@@ -16,12 +16,10 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::f64::consts::TAU;
 
-use super::{Deformation, LookChange};
-use crate::appearance::{MucosaAtlas, PeriodicNoise};
+use super::config::LookChange;
+use super::deform::Deformation;
+use crate::appearance::{GLOSS_ONE, MucosaAtlas, PeriodicNoise};
 use crate::colon::ColonModel;
-
-/// Gloss of a texel without fluid.
-pub(crate) const GLOSS_ONE: u8 = 64;
 
 /// Width of the soft edge of a patch, in units of its score.
 const EDGE: f32 = 0.06;

@@ -27,7 +27,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::TAU;
 
-use super::ShapeChange;
+use super::config::ShapeChange;
 use crate::centerline::Centerline;
 use crate::colon::ColonModel;
 use crate::trajectory::Wave;
@@ -332,7 +332,7 @@ fn mean_wall_radius(colon: &ColonModel) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::change::{ChangeConfig, Severity};
+    use crate::change::config::{ChangeConfig, Severity};
     use crate::colon::procedural::{self, ProceduralColonConfig};
 
     fn colon() -> ColonModel {

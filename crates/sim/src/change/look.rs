@@ -1,7 +1,7 @@
 //! The test pass's light, exposure, bubbles and optics, prepared for the renderer.
 //!
 //! - Light: power and specular scaled, the LED's cosine beam raised to `beam_exponent`, a
-//!   broad wet sheen added (see [`crate::render`]'s shading).
+//!   broad wet sheen added (in the renderer's shading).
 //! - Exposure: a gain drifting slowly over the pass between the two ends of its range
 //!   (periods of 100–600 frames), a white balance, and a gamma folded into the display curve.
 //! - Bubbles: frames come in episodes of [`EPISODE_FRAMES`]; an episode has bubbles with
@@ -13,7 +13,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{LookChange, ScopeChange};
+use super::config::{LookChange, ScopeChange};
 use crate::appearance::splitmix64;
 use crate::trajectory::Wave;
 
@@ -28,7 +28,7 @@ struct Bubble {
     r: f32,
 }
 
-/// The test pass's look, ready for [`crate::render::Renderer::with_look`].
+/// The test pass's look, ready for the renderer (`Renderer::with_look`).
 #[derive(Debug, Clone)]
 pub struct ChangedLook {
     pub(crate) light_power: f32,
@@ -192,7 +192,7 @@ impl ChangedLook {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::change::{ChangeConfig, Severity};
+    use crate::change::config::{ChangeConfig, Severity};
 
     #[test]
     fn gain_stays_in_its_range_and_bubbles_come_in_the_asked_share_of_frames() {
