@@ -251,6 +251,23 @@ impl Centerline {
     }
 }
 
+/// Centred moving average of `values`, `half` samples on each side (fewer at the ends), by
+/// prefix sums.
+pub(crate) fn moving_average(values: &[f64], half: usize) -> Vec<f64> {
+    let n = values.len();
+    let mut prefix = vec![0.0; n + 1];
+    for (i, v) in values.iter().enumerate() {
+        prefix[i + 1] = prefix[i] + v;
+    }
+    (0..n)
+        .map(|i| {
+            let lo = i.saturating_sub(half);
+            let hi = (i + half + 1).min(n);
+            (prefix[hi] - prefix[lo]) / (hi - lo) as f64
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

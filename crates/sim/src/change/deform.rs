@@ -28,7 +28,7 @@ use rand_chacha::ChaCha8Rng;
 use std::f64::consts::TAU;
 
 use super::config::ShapeChange;
-use crate::centerline::Centerline;
+use crate::centerline::{Centerline, moving_average as smooth};
 use crate::colon::ColonModel;
 use crate::trajectory::Wave;
 
@@ -64,22 +64,6 @@ fn mobility(section: Section) -> f64 {
         | Section::Caecum => 0.5,
         Section::AnalCanal | Section::Rectum | Section::Descending | Section::Ascending => 0.0,
     }
-}
-
-/// Centred moving average of half-width `half` samples.
-fn smooth(values: &[f64], half: usize) -> Vec<f64> {
-    let n = values.len();
-    let mut prefix = vec![0.0; n + 1];
-    for (i, v) in values.iter().enumerate() {
-        prefix[i + 1] = prefix[i] + v;
-    }
-    (0..n)
-        .map(|i| {
-            let lo = i.saturating_sub(half);
-            let hi = (i + half + 1).min(n);
-            (prefix[hi] - prefix[lo]) / (hi - lo) as f64
-        })
-        .collect()
 }
 
 impl Deformation {

@@ -22,7 +22,7 @@ use std::f64::consts::{PI, TAU};
 
 use super::{ColonModel, SurfaceMesh};
 use crate::SimError;
-use crate::centerline::Centerline;
+use crate::centerline::{Centerline, moving_average};
 
 /// Parameters of the procedural colon.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -373,17 +373,7 @@ impl RadiusProfile {
         // Blend section parameters over ±12 mm so the lumen changes smoothly.
         let half = (12.0 / step) as usize;
         let blend = |v: &dyn Fn(usize) -> f64| -> Vec<f64> {
-            let mut prefix = vec![0.0; n + 1];
-            for i in 0..n {
-                prefix[i + 1] = prefix[i] + v(i);
-            }
-            (0..n)
-                .map(|i| {
-                    let lo = i.saturating_sub(half);
-                    let hi = (i + half + 1).min(n);
-                    (prefix[hi] - prefix[lo]) / (hi - lo) as f64
-                })
-                .collect()
+            moving_average(&(0..n).map(v).collect::<Vec<f64>>(), half)
         };
         let base = blend(&|i| raw_radius[i]);
         let fold = blend(&|i| raw[i].fold_scale);
