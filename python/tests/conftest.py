@@ -49,13 +49,13 @@ def cli():
 
 @pytest.fixture(scope="session")
 def tiny(tmp_path_factory):
-    """A tiny dataset (80 + 30 frames at 160×120), a 6-zone model (1 epoch) and its map."""
+    """A tiny dataset (80 + 30 frames at 160×120), a 6-zone model (1 epoch, 80×60 network input) and its map."""
     root = tmp_path_factory.mktemp("tiny")
     data, model = root / "data", root / "model"
     endoloc.simulate(
         preset="small", train_frames=80, test_frames=30, width=160, height=120, out=data
     )
-    endoloc.train(data=data, zones=6, epochs=1, out=model)
+    endoloc.train(data=data, zones=6, epochs=1, input="80x60", out=model)
     endoloc.map(model=model, data=data, threshold=20)
     return root
 

@@ -235,7 +235,15 @@ fn killed_runs_leave_no_half_written_output_and_resume_to_the_same_figures() {
             "--epochs",
             "3",
         ]);
-        a.extend(args(&["--config", &s(&config), "--out", &s(out)]));
+        // A small network input keeps the epochs short; kills still land inside them.
+        a.extend(args(&[
+            "--input",
+            "80x60",
+            "--config",
+            &s(&config),
+            "--out",
+            &s(out),
+        ]));
         a.extend(args(extra));
         a
     };

@@ -149,13 +149,16 @@ impl ModelConfig {
     }
 }
 
-/// Saves backbone weights as safetensors.
+/// Saves backbone weights as safetensors, atomically, replacing a file at `path`: models are
+/// written into their own staging folder, where a file can only be a killed run's.
 ///
 /// # Errors
 /// [`NetError::Weights`].
 pub fn save_weights(net: &EmbeddingNet, path: &Path) -> Result<(), NetError> {
     // Names without the enum variant (`conv1.conv.weight`, as PyTorch would write them).
-    let mut store = SafetensorsStore::from_file(path).skip_enum_variants(true);
+    let mut store = SafetensorsStore::from_file(path)
+        .skip_enum_variants(true)
+        .overwrite(true);
     net.save_into(&mut store)
         .map_err(|e| NetError::weights(path, e))
 }
