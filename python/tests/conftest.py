@@ -62,11 +62,12 @@ def tiny(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def small(tmp_path_factory):
-    """The `small` preset (300 + 300 frames at 320×240), indexed with the shipped classifier
-    (`builtin-joint`, no training) into 50 zones, with its maps — as `endoloc demo` sets it up."""
+    """The `small` preset at 320×240 (300 training frames; 100 test frames, not 300, to keep
+    the tests short), indexed with the shipped classifier (`builtin-joint`, no training) into
+    50 zones, with its maps — as `endoloc demo` sets it up."""
     root = tmp_path_factory.mktemp("small")
     data, model = root / "data", root / "model"
-    endoloc.simulate(preset="small", out=data)
+    endoloc.simulate(preset="small", test_frames=100, out=data)
     endoloc.train(data=data, zones=50, out=model, pretrained="builtin-joint", epochs=0)
     endoloc.map(model=model, data=data)
     yield root
