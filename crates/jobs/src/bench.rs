@@ -7,10 +7,13 @@
 //! ([`endoloc_localize::LocalizerConfig::classify_tracked`]) and brute-force matching of
 //! tracked frames ([`endoloc_localize::MotionConfig::search_px`] 0). The two alternate which
 //! goes first from frame to frame, so both see the same machine load, and the speed-up is a
-//! ratio measured in one run. Nothing is written.
+//! ratio measured in one run. With `against`, the current localizer replays a second sequence
+//! instead (the same pass through the unchanged colon, say), frame by frame alternating with
+//! the first, each with its own live state: the slow-down of a changed colon, again a ratio
+//! from one run. Nothing is written.
 
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use endoloc_data::Sequence;
 use endoloc_features::SurfConfig;
@@ -40,6 +43,11 @@ pub struct LiveBenchJob {
     /// `no_compare` times the current localizer alone).
     #[cfg_attr(feature = "cli", arg(long = "no-compare", action = clap::ArgAction::SetFalse))]
     pub compare: bool,
+    /// Replay this sequence too, through the current localizer, frame by frame alternating
+    /// with `seq` (e.g. the same pass through the unchanged colon beside a changed one): the
+    /// report gives the latency of both and their ratio. Replaces the plain-path comparison.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "SEQ"))]
+    pub against: Option<PathBuf>,
     /// Confirm registrations against the map, as live localization does by default (both
     /// paths; `no_confirm` turns it off).
     #[cfg_attr(feature = "cli", arg(long = "no-confirm", action = clap::ArgAction::SetFalse))]
@@ -53,6 +61,7 @@ impl Default for LiveBenchJob {
             seq: PathBuf::new(),
             frames: None,
             compare: true,
+            against: None,
             confirm: true,
         }
     }
@@ -71,6 +80,8 @@ pub struct LiveBenchReport {
     /// Frames where the two gave a different status, zone, inlier count or pose (with
     /// `compare`): guided matching finds other (more) correspondences than brute force.
     pub differing_frames: Option<usize>,
+    /// The `against` sequence and the current localizer on it.
+    pub against: Option<(PathBuf, RunSummary)>,
 }
 
 fn same(a: &FrameResult, b: &FrameResult) -> bool {
@@ -84,6 +95,9 @@ impl LiveBenchJob {
     /// A model or map that cannot be loaded, a sequence that cannot be read, or a localizer
     /// error on a frame.
     pub fn run(&self, progress: &dyn Progress) -> Result<LiveBenchReport> {
+        if let Some(other) = &self.against {
+            return self.run_against(other, progress);
+        }
         let job = LocalizeJob {
             model: Some(self.model.clone()),
             seq: self.seq.clone(),
@@ -146,6 +160,54 @@ impl LiveBenchJob {
             current: summaries.0,
             reference: self.compare.then_some(summaries.1),
             differing_frames: self.compare.then_some(differing),
+            against: None,
+        })
+    }
+
+    /// `seq` and `other` through the current localizer, frame by frame, alternating which
+    /// goes first; as many frames of each as the shorter has (or `frames`).
+    fn run_against(&self, other: &Path, progress: &dyn Progress) -> Result<LiveBenchReport> {
+        let job = LocalizeJob {
+            model: Some(self.model.clone()),
+            seq: self.seq.clone(),
+            live: true,
+            confirm: self.confirm,
+            ..LocalizeJob::default()
+        };
+        let open = |path: &Path| -> Result<(Localizer, Sequence)> {
+            let localizer = job.localizer()?.with_mask(dataset_mask(path)?);
+            let seq =
+                Sequence::open(path).with_context(|| format!("opening {}", path.display()))?;
+            Ok((localizer, seq))
+        };
+        let (a, b) = (open(&self.seq)?, open(other)?);
+        let n = a.1.len().min(b.1.len());
+        let n = self.frames.map_or(n, |f| f.min(n));
+        let mut states = (a.0.live_state(), b.0.live_state());
+        let mut summaries = (RunSummary::default(), RunSummary::default());
+        let bar = bar(progress, n as u64, "live replay, both sequences");
+        for i in 0..n {
+            let (img_a, img_b) = (a.1.load_gray(i)?, b.1.load_gray(i)?);
+            let mut run_a = || a.0.localize_live(&mut states.0, &img_a);
+            let mut run_b = || b.0.localize_live(&mut states.1, &img_b);
+            let (ra, rb) = if i % 2 == 0 {
+                let ra = run_a()?;
+                (ra, run_b()?)
+            } else {
+                let rb = run_b()?;
+                (run_a()?, rb)
+            };
+            summaries.0.add(&ra);
+            summaries.1.add(&rb);
+            bar.inc(1);
+        }
+        drop(bar);
+        Ok(LiveBenchReport {
+            seq: self.seq.clone(),
+            current: summaries.0,
+            reference: None,
+            differing_frames: None,
+            against: Some((other.to_path_buf(), summaries.1)),
         })
     }
 }
@@ -171,6 +233,20 @@ impl fmt::Display for LiveBenchReport {
             writeln!(f, " {:>8.1}%", 100.0 * s.refined())
         };
         row(f, "current", &self.current)?;
+        if let Some((path, other)) = &self.against {
+            row(f, "current, against", other)?;
+            let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::NAN };
+            write!(
+                f,
+                "against: {}\nthis sequence / against: frame {:.2}x (median), {:.2}x (p95)",
+                path.display(),
+                ratio(self.current.median_ms(), other.median_ms()),
+                ratio(
+                    self.current.total_ms.quantile(0.95),
+                    other.total_ms.quantile(0.95)
+                )
+            )?;
+        }
         if let Some(r) = &self.reference {
             row(f, "plain path", r)?;
             let ratio = |a: f64, b: f64| if a > 0.0 { b / a } else { f64::NAN };

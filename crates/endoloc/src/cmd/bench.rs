@@ -23,13 +23,18 @@ enum What {
 /// and brute-force matching of tracked frames (the current path matches them guided by the
 /// predicted pose) — the two alternating which runs first, so the speed-up is a ratio
 /// measured in one run on one machine. The number of frames whose result differs is
-/// printed. Nothing is written.
+/// printed. With --against, a second sequence (the same pass through the unchanged colon
+/// beside a changed one, say) goes through the current localizer instead, frame by frame
+/// alternating with the first: the ratio of their latencies, from one run. Nothing is
+/// written.
 ///
 /// Examples:
 ///
 ///   endoloc bench live --model models/bj --seq data/paper/test
 ///
 ///   endoloc bench live --model models/bj --seq data/paper/test --frames 500 --no-compare
+///
+///   endoloc bench live --model models/bj --seq data/moderate/test --against data/paper/test
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 struct LiveArgs {

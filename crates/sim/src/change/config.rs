@@ -148,7 +148,8 @@ pub struct LookChange {
     pub gravity: [f64; 3],
     /// Fraction of frames with bubbles on or near the lens, 0–1.
     pub bubble_frames: f64,
-    /// Largest fraction of such a frame the bubbles cover, 0–1.
+    /// Largest fraction of such a frame the bubbles cover, 0–1; 1 is foam over the whole lens
+    /// (every pixel in a bubble).
     pub bubble_cover: f64,
 }
 

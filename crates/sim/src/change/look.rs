@@ -7,7 +7,8 @@
 //! - Bubbles: frames come in episodes of [`EPISODE_FRAMES`]; an episode has bubbles with
 //!   probability `bubble_frames`: a cluster of bubbles near the lens, drifting across the
 //!   episode, covering up to `bubble_cover` of the frame — translucent films with bright rims
-//!   and a specular dot, lit by the scope's light and fixed to no wall point.
+//!   and a specular dot, lit by the scope's light and fixed to no wall point. A `bubble_cover`
+//!   of 1 is foam over the whole lens: every pixel of such a frame lies in a bubble.
 //! - Defocus: a Gaussian blur of the linear image.
 
 use rand::{Rng, SeedableRng};
@@ -85,6 +86,9 @@ impl ChangedLook {
         }
         let mut rng = ChaCha8Rng::seed_from_u64(splitmix64(self.seed ^ key ^ 0xB0B));
         let (wf, hf) = (w as f32, h as f32);
+        if self.bubble_cover >= 1.0 {
+            return foam(&mut rng, wf, hf);
+        }
         let area = wf * hf;
         let cover = self.bubble_cover as f32 * rng.random_range(0.4..1.0f32);
         let cluster_r = (cover * area / std::f32::consts::PI).sqrt();
@@ -112,9 +116,17 @@ impl ChangedLook {
         bubbles
     }
 
-    /// Draws frame `frame`'s bubbles into a linear RGB image (`w × h × 3`).
+    /// Draws frame `frame`'s bubbles into a linear RGB image (`w × h × 3`). A bubble is a lens:
+    /// the wall behind it is seen magnified about its centre (most at the centre, least at the
+    /// rim), so what shows through it is not where the wall is.
     pub(crate) fn draw_bubbles(&self, linear: &mut [f32], w: usize, h: usize, frame: usize) {
-        for b in self.bubbles(frame, w, h) {
+        let bubbles = self.bubbles(frame, w, h);
+        if bubbles.is_empty() {
+            return;
+        }
+        let behind = linear.to_vec();
+        let clamp = |v: f32, n: usize| (v.round().max(0.0) as usize).min(n - 1);
+        for b in bubbles {
             let (x0, x1) = (
                 (b.x - b.r).floor().max(0.0),
                 (b.x + b.r).ceil().min(w as f32 - 1.0),
@@ -139,9 +151,10 @@ impl ChangedLook {
                     let spot = (1.0 - (ex * ex + ey * ey).sqrt() / hr).max(0.0);
                     let add = 0.08 + 0.9 * rim * rim + 2.5 * spot * spot;
                     let keep = 0.7 - 0.3 * rim;
+                    let m = 0.5 + 0.5 * d * d;
+                    let (sx, sy) = (clamp(b.x + dx * m, w), clamp(b.y + dy * m, h));
                     for c in 0..3 {
-                        let v = &mut linear[3 * (y * w + x) + c];
-                        *v = *v * keep + add;
+                        linear[3 * (y * w + x) + c] = behind[3 * (sy * w + sx) + c] * keep + add;
                     }
                 }
             }
@@ -189,6 +202,25 @@ impl ChangedLook {
     }
 }
 
+/// Foam over the whole lens: bubbles on a jittered square grid of pitch `r0`, each with a
+/// radius of at least 0.9 `r0`, so that every pixel of a `wf × hf` image lies in one (a grid
+/// cell's farthest point is r0/√2 + the jitter, 0.71 + 0.14 < 0.9 pitches, from its bubble).
+fn foam(rng: &mut ChaCha8Rng, wf: f32, hf: f32) -> Vec<Bubble> {
+    let r0 = 0.08 * wf.min(hf);
+    let (nx, ny) = ((wf / r0).ceil() as usize + 1, (hf / r0).ceil() as usize + 1);
+    let mut bubbles = Vec::with_capacity(nx * ny);
+    for j in 0..ny {
+        for i in 0..nx {
+            bubbles.push(Bubble {
+                x: (i as f32 + rng.random_range(-0.1..0.1f32)) * r0,
+                y: (j as f32 + rng.random_range(-0.1..0.1f32)) * r0,
+                r: rng.random_range(0.9..1.3f32) * r0,
+            });
+        }
+    }
+    bubbles
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -214,5 +246,25 @@ mod tests {
             .count();
         let share = with as f64 / frames as f64;
         assert!((share - cfg.look.bubble_frames).abs() < 0.04, "{share}");
+    }
+
+    #[test]
+    fn foam_puts_every_pixel_in_a_bubble() {
+        let mut cfg = ChangeConfig::preset(Severity::Moderate);
+        cfg.look.bubble_frames = 1.0;
+        cfg.look.bubble_cover = 1.0;
+        let look = ChangedLook::new(&cfg.look, &cfg.scope, 4);
+        for (frame, (w, h)) in [(0, (64, 48)), (13, (160, 120)), (40, (47, 61))] {
+            let bubbles = look.bubbles(frame, w, h);
+            for y in 0..h {
+                for x in 0..w {
+                    let (x, y) = (x as f32, y as f32);
+                    assert!(
+                        bubbles.iter().any(|b| (x - b.x).hypot(y - b.y) < b.r),
+                        "frame {frame} ({w}x{h}): pixel ({x}, {y}) in no bubble"
+                    );
+                }
+            }
+        }
     }
 }
