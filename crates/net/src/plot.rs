@@ -25,7 +25,22 @@ pub fn loss_curve_or_warn(path: &Path, history: &[EpochRecord]) {
 }
 
 fn draw(path: &Path, history: &[EpochRecord]) -> Result<(), Box<dyn std::error::Error>> {
-    let root = BitMapBackend::new(path, (900, 700)).into_drawing_area();
+    const SIZE: (u32, u32) = (900, 700);
+    let mut buf = vec![255u8; SIZE.0 as usize * SIZE.1 as usize * 3];
+    draw_into(&mut buf, SIZE, history)?;
+    let img =
+        image::RgbImage::from_raw(SIZE.0, SIZE.1, buf).ok_or("plot buffer of a wrong size")?;
+    img.save_with_format(path, image::ImageFormat::Png)?;
+    Ok(())
+}
+
+/// Draws `history` into an RGB buffer of `size` pixels.
+fn draw_into(
+    buf: &mut [u8],
+    size: (u32, u32),
+    history: &[EpochRecord],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let root = BitMapBackend::with_buffer(buf, size).into_drawing_area();
     root.fill(&WHITE)?;
     let (top, bottom) = root.split_vertically(420);
     let max_epoch = history.last().map_or(1, |r| r.epoch).max(1) as f64;
