@@ -1,14 +1,16 @@
 //! EndoSLAM ex-vivo poses read directly from `.xlsx` workbooks (feature `xlsx`): poses joined
 //! on ImageFrame and converted with the given units, sheet choice, and errors naming the file,
-//! the sheet, the row and the cell. Workbooks are written at test time with rust_xlsxwriter.
+//! the sheet, the row and the cell. Workbooks are written at test time (tests/support/xlsx.rs).
 #![cfg(feature = "xlsx")]
 
 use endoloc_data::DataError;
 use endoloc_data::import::endoslam::{EndoSlamConfig, Units, read_endoslam};
 use endoloc_geometry::{Camera, Distortion};
 use nalgebra::{UnitQuaternion, Vector3};
-use rust_xlsxwriter::{Workbook, Worksheet};
+mod support;
+
 use std::path::{Path, PathBuf};
+use support::xlsx::{Workbook, Worksheet};
 
 fn camera() -> Camera {
     Camera {
@@ -59,20 +61,20 @@ fn recording(tmp: &Path) -> PathBuf {
 /// "0005.png" (a file name), the others are numbers.
 fn pose_table(ws: &mut Worksheet, row0: u32, col0: u16) {
     for (k, h) in HEADER.iter().enumerate() {
-        ws.write_string(row0, col0 + k as u16, *h).unwrap();
+        ws.write_string(row0, col0 + k as u16, *h);
     }
     for (r, i) in [3usize, 1, 2, 5].into_iter().enumerate() {
         let row = row0 + 1 + r as u32;
         let (t, q) = truth(i);
         let s = if i == 2 { -1.0 } else { 1.0 };
         if i == 5 {
-            ws.write_string(row, col0, "0005.png").unwrap();
+            ws.write_string(row, col0, "0005.png");
         } else {
-            ws.write_number(row, col0, i as f64).unwrap();
+            ws.write_number(row, col0, i as f64);
         }
         let vals = [r as f64, t.x, t.y, t.z, s * q.i, s * q.j, s * q.k, s * q.w];
         for (k, v) in vals.into_iter().enumerate() {
-            ws.write_number(row, col0 + 1 + k as u16, v).unwrap();
+            ws.write_number(row, col0 + 1 + k as u16, v);
         }
     }
 }
@@ -82,18 +84,16 @@ fn pose_table(ws: &mut Worksheet, row0: u32, col0: u16) {
 fn workbook(path: &Path) {
     let mut wb = Workbook::new();
     let notes = wb.add_worksheet();
-    notes.set_name("Notes").unwrap();
-    notes
-        .write_string(
-            0,
-            0,
-            "Colon-IV recording, Olympus, poses from the magnetic tracker",
-        )
-        .unwrap();
+    notes.set_name("Notes");
+    notes.write_string(
+        0,
+        0,
+        "Colon-IV recording, Olympus, poses from the magnetic tracker",
+    );
     let ws = wb.add_worksheet();
-    ws.set_name("Poses").unwrap();
+    ws.set_name("Poses");
     pose_table(ws, 2, 1);
-    wb.save(path).unwrap();
+    wb.save(path);
 }
 
 fn config(poses: &Path, units: Units) -> EndoSlamConfig {
@@ -222,10 +222,10 @@ fn xlsx_is_found_in_poses_folder_and_sheet_can_be_named() {
 fn edited(path: &Path, edit: impl FnOnce(&mut Worksheet)) {
     let mut wb = Workbook::new();
     let ws = wb.add_worksheet();
-    ws.set_name("Poses").unwrap();
+    ws.set_name("Poses");
     pose_table(ws, 0, 0);
     edit(ws);
-    wb.save(path).unwrap();
+    wb.save(path);
 }
 
 fn error_of(src: &Path, xlsx: &Path) -> DataError {
@@ -240,7 +240,7 @@ fn bad_cells_name_the_file_sheet_row_and_column() {
 
     // Non-numeric cell: trans_y (column D) of spreadsheet row 3.
     edited(&xlsx, |ws| {
-        ws.write_string(2, 3, "n/a").unwrap();
+        ws.write_string(2, 3, "n/a");
     });
     let e = error_of(&src, &xlsx);
     let m = e.to_string();
@@ -254,7 +254,7 @@ fn bad_cells_name_the_file_sheet_row_and_column() {
 
     // A boolean cell: quot_z (column H) of row 4.
     edited(&xlsx, |ws| {
-        ws.write_boolean(3, 7, true).unwrap();
+        ws.write_boolean(3, 7, true);
     });
     let m = error_of(&src, &xlsx).to_string();
     assert!(
@@ -264,8 +264,7 @@ fn bad_cells_name_the_file_sheet_row_and_column() {
 
     // An empty cell inside the table: trans_z (column E) of row 5.
     edited(&xlsx, |ws| {
-        ws.write_blank(4, 4, &rust_xlsxwriter::Format::new())
-            .unwrap();
+        ws.write_blank(4, 4);
     });
     let m = error_of(&src, &xlsx).to_string();
     assert!(
@@ -275,7 +274,7 @@ fn bad_cells_name_the_file_sheet_row_and_column() {
 
     // Missing column: quot_w's header renamed.
     edited(&xlsx, |ws| {
-        ws.write_string(0, 8, "w").unwrap();
+        ws.write_string(0, 8, "w");
     });
     let m = error_of(&src, &xlsx).to_string();
     assert!(
@@ -288,7 +287,7 @@ fn bad_cells_name_the_file_sheet_row_and_column() {
     // A quaternion that is not unit: named with the sheet and row.
     edited(&xlsx, |ws| {
         for c in 5..9 {
-            ws.write_number(3, c, 0.8).unwrap();
+            ws.write_number(3, c, 0.8);
         }
     });
     let m = error_of(&src, &xlsx).to_string();
@@ -299,7 +298,7 @@ fn bad_cells_name_the_file_sheet_row_and_column() {
 
     // The same frame twice.
     edited(&xlsx, |ws| {
-        ws.write_number(3, 0, 3.0).unwrap();
+        ws.write_number(3, 0, 3.0);
     });
     let m = error_of(&src, &xlsx).to_string();
     assert!(
@@ -317,8 +316,8 @@ fn empty_and_broken_workbooks_are_errors_not_panics() {
     // A workbook whose only sheet is empty.
     let empty = tmp.path().join("empty.xlsx");
     let mut wb = Workbook::new();
-    wb.add_worksheet().set_name("Poses").unwrap();
-    wb.save(&empty).unwrap();
+    wb.add_worksheet().set_name("Poses");
+    wb.save(&empty);
     let m = error_of(&src, &empty).to_string();
     assert!(
         m.contains("empty.xlsx") && m.contains("sheet \"Poses\" is empty"),
@@ -330,9 +329,9 @@ fn empty_and_broken_workbooks_are_errors_not_panics() {
     let mut wb = Workbook::new();
     let ws = wb.add_worksheet();
     for (k, h) in HEADER.iter().enumerate() {
-        ws.write_string(0, k as u16, *h).unwrap();
+        ws.write_string(0, k as u16, *h);
     }
-    wb.save(&header_only).unwrap();
+    wb.save(&header_only);
     let m = error_of(&src, &header_only).to_string();
     assert!(
         m.contains("header.xlsx") && m.contains("no ImageFrame matches"),
