@@ -61,7 +61,7 @@ fn recording(tmp: &Path) -> PathBuf {
 /// "0005.png" (a file name), the others are numbers.
 fn pose_table(ws: &mut Worksheet, row0: u32, col0: u16) {
     for (k, h) in HEADER.iter().enumerate() {
-        ws.write_string(row0, col0 + k as u16, *h);
+        ws.write_string(row0, col0 + k as u16, h);
     }
     for (r, i) in [3usize, 1, 2, 5].into_iter().enumerate() {
         let row = row0 + 1 + r as u32;
@@ -329,7 +329,7 @@ fn empty_and_broken_workbooks_are_errors_not_panics() {
     let mut wb = Workbook::new();
     let ws = wb.add_worksheet();
     for (k, h) in HEADER.iter().enumerate() {
-        ws.write_string(0, k as u16, *h);
+        ws.write_string(0, k as u16, h);
     }
     wb.save(&header_only);
     let m = error_of(&src, &header_only).to_string();
