@@ -98,13 +98,7 @@ impl LiveBenchJob {
         if let Some(other) = &self.against {
             return self.run_against(other, progress);
         }
-        let job = LocalizeJob {
-            model: Some(self.model.clone()),
-            seq: self.seq.clone(),
-            live: true,
-            confirm: self.confirm,
-            ..LocalizeJob::default()
-        };
+        let job = self.localize_job();
         let mask = dataset_mask(&self.seq)?;
         let current = job.localizer()?.with_mask(mask.clone());
         let reference = if self.compare {
@@ -164,16 +158,21 @@ impl LiveBenchJob {
         })
     }
 
-    /// `seq` and `other` through the current localizer, frame by frame, alternating which
-    /// goes first; as many frames of each as the shorter has (or `frames`).
-    fn run_against(&self, other: &Path, progress: &dyn Progress) -> Result<LiveBenchReport> {
-        let job = LocalizeJob {
+    /// The live localize job this bench replays.
+    fn localize_job(&self) -> LocalizeJob {
+        LocalizeJob {
             model: Some(self.model.clone()),
             seq: self.seq.clone(),
             live: true,
             confirm: self.confirm,
             ..LocalizeJob::default()
-        };
+        }
+    }
+
+    /// `seq` and `other` through the current localizer, frame by frame, alternating which
+    /// goes first; as many frames of each as the shorter has (or `frames`).
+    fn run_against(&self, other: &Path, progress: &dyn Progress) -> Result<LiveBenchReport> {
+        let job = self.localize_job();
         let open = |path: &Path| -> Result<(Localizer, Sequence)> {
             let localizer = job.localizer()?.with_mask(dataset_mask(path)?);
             let seq =
