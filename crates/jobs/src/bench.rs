@@ -84,6 +84,22 @@ pub struct LiveBenchReport {
     pub against: Option<(PathBuf, RunSummary)>,
 }
 
+/// Runs `a` and `b` on frame `i`, `a` first on even frames and `b` first on odd ones, so
+/// that both see the same machine load; returns their results as `(a, b)`.
+fn alternate<T, E>(
+    i: usize,
+    a: impl FnOnce() -> Result<T, E>,
+    b: impl FnOnce() -> Result<T, E>,
+) -> Result<(T, T), E> {
+    if i.is_multiple_of(2) {
+        let ra = a()?;
+        Ok((ra, b()?))
+    } else {
+        let rb = b()?;
+        Ok((a()?, rb))
+    }
+}
+
 fn same(a: &FrameResult, b: &FrameResult) -> bool {
     a.status == b.status && a.t_wc == b.t_wc && a.zone == b.zone && a.inliers == b.inliers
 }
@@ -129,14 +145,8 @@ impl LiveBenchJob {
             let mut run_current = || current.localize_live(&mut states.0, &img);
             let (a, b) = match (&reference, &mut states.1) {
                 (Some(r), Some(state)) => {
-                    let mut run_reference = || r.localize_live(state, &img);
-                    let (a, b) = if i % 2 == 0 {
-                        let a = run_current()?;
-                        (a, run_reference()?)
-                    } else {
-                        let b = run_reference()?;
-                        (run_current()?, b)
-                    };
+                    let run_reference = || r.localize_live(state, &img);
+                    let (a, b) = alternate(i, run_current, run_reference)?;
                     (a, Some(b))
                 }
                 _ => (run_current()?, None),
@@ -187,15 +197,9 @@ impl LiveBenchJob {
         let bar = bar(progress, n as u64, "live replay, both sequences");
         for i in 0..n {
             let (img_a, img_b) = (a.1.load_gray(i)?, b.1.load_gray(i)?);
-            let mut run_a = || a.0.localize_live(&mut states.0, &img_a);
-            let mut run_b = || b.0.localize_live(&mut states.1, &img_b);
-            let (ra, rb) = if i % 2 == 0 {
-                let ra = run_a()?;
-                (ra, run_b()?)
-            } else {
-                let rb = run_b()?;
-                (run_a()?, rb)
-            };
+            let run_a = || a.0.localize_live(&mut states.0, &img_a);
+            let run_b = || b.0.localize_live(&mut states.1, &img_b);
+            let (ra, rb) = alternate(i, run_a, run_b)?;
             summaries.0.add(&ra);
             summaries.1.add(&rb);
             bar.inc(1);
