@@ -6,8 +6,9 @@
 //!   (periods of 100–600 frames), a white balance, and a gamma folded into the display curve.
 //! - Bubbles: frames come in episodes of [`EPISODE_FRAMES`]; an episode has bubbles with
 //!   probability `bubble_frames`: a cluster of bubbles near the lens, drifting across the
-//!   episode, covering up to `bubble_cover` of the frame — translucent films with bright rims
-//!   and a specular dot, lit by the scope's light and fixed to no wall point. A `bubble_cover`
+//!   episode, covering up to `bubble_cover` of the frame — lenses with bright rims and a
+//!   specular dot, lit by the scope's light and fixed to no wall point, showing the wall behind
+//!   them magnified (`ChangedLook::draw_bubbles`). A `bubble_cover`
 //!   of 1 is foam over the whole lens: every pixel of such a frame lies in a bubble.
 //! - Defocus: a Gaussian blur of the linear image.
 
