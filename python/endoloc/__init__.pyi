@@ -239,6 +239,7 @@ def localize(
     max_rms_px: float = ...,
     max_jump_mm: float = ...,
     polish_px: float = ...,
+    colon_scale: float = ...,
     strict: bool = ...,
     force: bool = ...,
     progress: ProgressArg = None,
@@ -293,6 +294,9 @@ def localize(
     - ``max_jump_mm``: Validity: largest jump from the prior, mm.
     - ``polish_px``: Scale of the Cauchy kernel of the final polish on the inliers, pixels
       (0: least squares).
+    - ``colon_scale``: Refine each refined pose with the colon's scale about its mid-line
+      (a pass insufflated differently from the mapping pass): the scale prior's standard
+      deviation around 1 (0.15: about ±15 %); 0: rigid poses, as in the paper.
     - ``strict``: Stop at the first image that cannot be read instead of reporting the
       frame as `rejected` (`unreadable_image`) and going on.
     - ``force``: Replace existing results in `out`.

@@ -210,6 +210,7 @@ class Localizer:
         max_rms_px: float = ...,
         max_jump_mm: float = ...,
         polish_px: float = ...,
+        colon_scale: float = ...,
     ) -> None: ...
     def localize(self, image: Image) -> FrameResult:
         """Localizes one frame of the model's image size; live, frames in order."""

@@ -9,6 +9,7 @@
 use std::path::Path;
 
 use endoloc_data::StampedPose;
+use endoloc_geometry::Polyline;
 use nalgebra::Point3;
 
 use crate::EvalError;
@@ -16,9 +17,7 @@ use crate::EvalError;
 /// A colon's mid-line with the arc length of every vertex.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Midline {
-    points: Vec<Point3<f64>>,
-    /// Arc length at each point, mm (0 at the first).
-    s_mm: Vec<f64>,
+    line: Polyline,
     /// Where it came from, in words (for the report).
     source: String,
 }
@@ -39,27 +38,12 @@ impl Midline {
                 "{source}: mid-line point {i} is not finite"
             )));
         }
-        let mut kept: Vec<Point3<f64>> = Vec::with_capacity(points.len());
-        let mut s_mm = Vec::with_capacity(points.len());
-        for p in points {
-            match kept.last() {
-                Some(last) if (p - last).norm() < 1e-9 => continue,
-                Some(last) => s_mm.push(s_mm.last().copied().unwrap_or(0.0) + (p - last).norm()),
-                None => s_mm.push(0.0),
-            }
-            kept.push(*p);
-        }
-        if kept.len() < 2 {
+        let Some(line) = Polyline::new(points) else {
             return Err(EvalError::Invalid(format!(
-                "{source}: a mid-line needs at least two distinct points, found {}",
-                kept.len()
+                "{source}: a mid-line needs at least two distinct points"
             )));
-        }
-        Ok(Midline {
-            points: kept,
-            s_mm,
-            source,
-        })
+        };
+        Ok(Midline { line, source })
     }
 
     /// Reads a mid-line file (`midline.txt`: `x y z` per line, mm; or any path format
@@ -96,22 +80,12 @@ impl Midline {
 
     /// Length of the mid-line, mm.
     pub fn length_mm(&self) -> f64 {
-        self.s_mm.last().copied().unwrap_or(0.0)
+        self.line.length_mm()
     }
 
     /// Arc length (mm from the first point) of the mid-line point nearest to `p`.
     pub fn arc_length_at(&self, p: &Point3<f64>) -> f64 {
-        let mut best = (f64::INFINITY, 0.0);
-        for (i, pair) in self.points.windows(2).enumerate() {
-            let (a, b) = (pair[0], pair[1]);
-            let ab = b - a;
-            let t = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
-            let d2 = (a + ab * t - p).norm_squared();
-            if d2 < best.0 {
-                best = (d2, self.s_mm[i] + t * (self.s_mm[i + 1] - self.s_mm[i]));
-            }
-        }
-        best.1
+        self.line.nearest(p).s_mm
     }
 
     /// The error along the colon between an estimated and a true position, mm.

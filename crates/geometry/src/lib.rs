@@ -11,8 +11,10 @@
 pub mod camera;
 pub mod essential;
 pub mod pnp;
+pub mod polyline;
 pub mod pose;
 pub mod refine_pose;
+pub mod refine_radial;
 pub mod registration;
 pub mod reprojection;
 pub mod rotation_mean;
@@ -31,12 +33,14 @@ pub use essential::{
     five_point, ransac_essential, ransac_essential_normalized, recover_pose, refine_relative_pose,
 };
 pub use pnp::{RansacConfig, RansacError, RansacPose, ransac_pnp};
+pub use polyline::{Nearest, Polyline};
 pub use pose::{
     Pose, canonical_quaternion, orientation_error_deg, pose_from_matrix, position_error_mm,
 };
 pub use refine_pose::{
     BOUND95_PER_STD, PoseEstimate, RefineConfig, RefineError, RobustKernel, refine_pose,
 };
+pub use refine_radial::{Foot, RadialConfig, RadialFit, refine_radial};
 pub use registration::{Localization, RegistrationConfig, RegistrationError, localize_pose};
 pub use rotation_mean::{
     GeodesicMedianConfig, RotationMeanError, chordal_mean, geodesic_median, zone_median_pose,

@@ -35,11 +35,12 @@ use endoloc_features::{Feature, MatcherConfig};
 use endoloc_geometry::{
     Camera, Pose, PoseEstimate, Reason, RegistrationConfig, Status, localize_pose,
 };
+use nalgebra::Point3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::LocalizeError;
-use crate::map::{Map, MapPoint, correspondences, inlier_pixels};
+use crate::map::{Map, MapPoint, correspondences, inlier_pixels, inlier_points};
 
 /// Settings of the confirmation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -170,6 +171,8 @@ pub struct Confirmation {
     pub estimate: Option<PoseEstimate>,
     /// Pixels of that refinement's inliers.
     pub inlier_px: Vec<[f32; 2]>,
+    /// The map points of those inliers (world, mm), in the order of `inlier_px`.
+    pub inlier_points: Vec<Point3<f64>>,
     /// Guided matches of that refinement.
     pub correspondences: usize,
     /// Starts tried (1, or 7 with the starts around a weakly supported pose).
@@ -302,6 +305,7 @@ fn confirm_from(
         }),
         estimate: None,
         inlier_px: Vec::new(),
+        inlier_points: Vec::new(),
         correspondences: 0,
         starts: 1,
     };
@@ -326,6 +330,10 @@ fn confirm_from(
             .estimate
             .as_ref()
             .map_or_else(Vec::new, |e| inlier_pixels(&pixels, &e.inliers));
+        last.inlier_points = result
+            .estimate
+            .as_ref()
+            .map_or_else(Vec::new, |e| inlier_points(&points, &e.inliers));
         let min = cfg.min_inliers;
         let failure = if result.verdict.status != Status::Refined {
             Some(Reason::Unsupported { inliers, min })

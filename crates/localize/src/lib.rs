@@ -12,6 +12,7 @@
 
 #![warn(missing_docs)]
 
+pub mod colon_scale;
 pub mod confirm;
 pub mod export;
 pub mod guided;

@@ -454,6 +454,16 @@ pub(crate) fn inlier_pixels(pixels: &[Point2<f64>], inliers: &[bool]) -> Vec<[f3
         .collect()
 }
 
+/// The map points flagged in `inliers` (one flag per point).
+pub(crate) fn inlier_points(points: &[Point3<f64>], inliers: &[bool]) -> Vec<Point3<f64>> {
+    points
+        .iter()
+        .zip(inliers)
+        .filter(|(_, inlier)| **inlier)
+        .map(|(p, _)| *p)
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,6 +8,7 @@ use std::time::Instant;
 use endoloc_data::{Dataset, Sequence, StampedPose};
 use endoloc_features::Mask;
 use endoloc_geometry::RobustKernel;
+use endoloc_localize::colon_scale::ColonScaleConfig;
 use endoloc_localize::map_io::load_map;
 use endoloc_localize::{ConfirmConfig, FrameResult, Localizer, LocalizerConfig, MotionConfig};
 use endoloc_net::ZoneClassifier;
@@ -186,6 +187,14 @@ pub struct LocalizeJob {
     /// ignores those. 0: least squares on the inliers.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().polish_px))]
     pub polish_px: f64,
+    /// Refine each `refined` pose once more with the colon's scale about its mid-line (the
+    /// training pass's camera path): a colon insufflated more or less than when it was mapped
+    /// is the mapped colon scaled about its mid-line, and a rigid pose fitted to it lands
+    /// millimetres off along the lumen. The value is the standard deviation of the scale's
+    /// prior around 1 (0.15: about ±15 %); the pose reported is the camera carried back into
+    /// the mapped colon. 0: rigid poses, as in the paper.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().colon_scale))]
+    pub colon_scale: f64,
     /// Stop at the first image that cannot be read (for batch checks) instead of
     /// reporting the frame as `rejected` (reason `unreadable_image`) and going on.
     #[cfg_attr(feature = "cli", arg(long))]
@@ -230,6 +239,7 @@ impl Default for LocalizeJob {
                 RobustKernel::Cauchy { scale_px } | RobustKernel::Huber { scale_px } => scale_px,
                 RobustKernel::None => 0.0,
             },
+            colon_scale: cfg.colon_scale.map_or(0.0, |c| c.fit.prior_sigma),
             strict: false,
             force: false,
         }
@@ -303,6 +313,11 @@ impl LocalizeJob {
         validity.max_position_sigma_mm = self.max_sigma_mm;
         validity.max_rms_px = self.max_rms_px;
         validity.max_jump_mm = self.max_jump_mm;
+        cfg.colon_scale = (self.colon_scale != 0.0).then(|| {
+            let mut c = ColonScaleConfig::default();
+            c.fit.prior_sigma = self.colon_scale;
+            c
+        });
         cfg.localize.refine.polish_kernel = if self.polish_px == 0.0 {
             RobustKernel::None
         } else {

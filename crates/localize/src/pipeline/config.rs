@@ -5,6 +5,7 @@ use endoloc_geometry::RegistrationConfig;
 use endoloc_net::TemporalConfig;
 use serde::{Deserialize, Serialize};
 
+use crate::colon_scale::ColonScaleConfig;
 use crate::confirm::ConfirmConfig;
 use crate::motion::MotionConfig;
 
@@ -86,6 +87,10 @@ pub struct LocalizerConfig {
     /// configuration's default, the paper's pipeline; [`ConfirmConfig::standard`] turns it on,
     /// as `endoloc localize` does unless `confirm` is off.
     pub confirm: ConfirmConfig,
+    /// Refine every `refined` pose once more with the colon's scale about its mid-line
+    /// ([`crate::colon_scale`]; beyond the paper): the pose reported is the camera carried
+    /// back into the mapped colon. `None` (default): rigid poses, as in the paper.
+    pub colon_scale: Option<ColonScaleConfig>,
 }
 
 impl Default for LocalizerConfig {
@@ -107,6 +112,7 @@ impl Default for LocalizerConfig {
             max_std_mm: f64::INFINITY,
             weak_max_std_mm: f64::INFINITY,
             confirm: ConfirmConfig::default(),
+            colon_scale: None,
         }
     }
 }

@@ -9,6 +9,7 @@ use endoloc_geometry::{Camera, Pose, Reason, RobustKernel, Status, localize_pose
 use endoloc_net::{TemporalFilter, ZoneClassifier, ZonePrediction};
 
 use crate::LocalizeError;
+use crate::colon_scale::ColonScale;
 use crate::confirm::confirm;
 use crate::map::{Map, MapPoint};
 use crate::motion::Gate;
@@ -30,6 +31,8 @@ pub struct Localizer {
     /// The image mask (non-zero = valid), when frames have one: the zone network sees frames
     /// black outside it, as in training.
     pub(super) mask: Option<std::sync::Arc<image::GrayImage>>,
+    /// The colon-scale refinement, when [`LocalizerConfig::colon_scale`] is on.
+    pub(super) colon_scale: Option<ColonScale>,
 }
 
 /// A frame's SURF features at [`LocalizerConfig::retry_threshold`](crate::LocalizerConfig::retry_threshold), extracted beforehand.
@@ -131,7 +134,23 @@ impl Localizer {
         };
         let matcher = Matcher::new(cfg.matcher.clone());
         let gate = Gate::new(&cfg.motion, classifier.train_poses());
+        let colon_scale = match cfg.colon_scale {
+            Some(cfg) => {
+                cfg.validate().map_err(LocalizeError::Config)?;
+                Some(
+                    ColonScale::new(classifier.train_poses(), cfg).ok_or_else(|| {
+                        LocalizeError::Config(
+                            "colon_scale needs a training pass that moves (its camera path is \
+                         the mid-line)"
+                                .into(),
+                        )
+                    })?,
+                )
+            }
+            None => None,
+        };
         Ok(Localizer {
+            colon_scale,
             gate,
             mask: None,
             classifier,
@@ -225,7 +244,7 @@ impl Localizer {
         let t = Instant::now();
         let features = self.surf.detect_and_describe(img)?;
         times.surf_ms = ms(t);
-        self.register(&features, zone, zone_score, times)
+        Ok(self.scaled_alone(self.register(&features, zone, zone_score, times)?))
     }
 
     /// Steps 3–4 for precomputed SURF features of the frame, in one zone.
@@ -299,13 +318,18 @@ impl Localizer {
             .estimate
             .as_ref()
             .map_or((0, f64::NAN), |e| (e.inlier_count, e.rms_px));
-        let inlier_px = result
-            .estimate
-            .as_ref()
-            .map_or_else(Vec::new, |e| crate::map::inlier_pixels(&pixels, &e.inliers));
+        let (inlier_px, inlier_points) = result.estimate.as_ref().map_or_else(
+            || (Vec::new(), Vec::new()),
+            |e| {
+                (
+                    crate::map::inlier_pixels(&pixels, &e.inliers),
+                    crate::map::inlier_points(&points, &e.inliers),
+                )
+            },
+        );
         let mut result = result;
-        let (mut inliers, mut rms, mut inlier_px, mut correspondences) =
-            (inliers, rms, inlier_px, matches.len());
+        let (mut inliers, mut rms, mut inlier_px, mut inlier_points, mut correspondences) =
+            (inliers, rms, inlier_px, inlier_points, matches.len());
         let trust = self.cfg.confirm.trust_tracked_inliers;
         let trusted_as_is =
             matches!(origin, Prior::Predicted { .. }) && trust > 0 && inliers >= trust;
@@ -328,6 +352,7 @@ impl Localizer {
             times.refine_ms += ms(t);
             correspondences = c.correspondences;
             inlier_px = c.inlier_px;
+            inlier_points = c.inlier_points;
             (inliers, rms) = c
                 .estimate
                 .as_ref()
@@ -381,6 +406,8 @@ impl Localizer {
             correspondences,
             inliers,
             inlier_px,
+            inlier_points,
+            colon_scale: None,
             reprojection_rms_px: rms,
             times,
         })
@@ -422,7 +449,7 @@ impl Localizer {
         let r = self.with_retry(&features, Retry::Image(img), times, |f, times, _| {
             self.localize_candidates(f, pred, chosen, &[], times)
         })?;
-        Ok(self.trusted_alone(r))
+        Ok(self.trusted_alone(self.scaled_alone(r)))
     }
 
     /// [`Localizer::localize_with_prediction`] for SURF features already extracted from the
@@ -444,7 +471,7 @@ impl Localizer {
         let r = self.with_retry(features, retry.into(), times, |f, times, _| {
             self.localize_candidates(f, pred, chosen, &[], times)
         })?;
-        Ok(self.trusted_alone(r))
+        Ok(self.trusted_alone(self.scaled_alone(r)))
     }
 
     /// A per-frame registration stays `refined` only when its stated position uncertainty is
@@ -627,7 +654,7 @@ impl Localizer {
                 "zone {zone} out of range (the model has {n_zones})"
             )));
         }
-        self.register(features, zone, f32::NAN, times)
+        Ok(self.scaled_alone(self.register(features, zone, f32::NAN, times)?))
     }
 
     /// The settings.
@@ -646,7 +673,7 @@ impl Localizer {
     }
 }
 
-pub(super) fn ms(t: Instant) -> f64 {
+pub(crate) fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 

@@ -9,6 +9,7 @@ use endoloc_geometry::{Pose, Reason, Status};
 use endoloc_net::{TemporalFilter, TrackFilter, ZonePrediction};
 
 use crate::LocalizeError;
+use crate::colon_scale::ScaleTrack;
 use crate::motion::{Prediction, Track};
 
 use super::frame::{Localizer, Prior, Retry, RetryFeatures, ms};
@@ -28,7 +29,7 @@ enum Tracked {
     /// No recent prediction (or it lies outside every zone): not tried.
     NotTried,
     /// Refined, and agrees with the prediction.
-    Registered(FrameResult),
+    Registered(Box<FrameResult>),
     /// Tried and failed: the matching and refinement time it took.
     Failed(StageTimes),
 }
@@ -46,6 +47,8 @@ pub struct LiveState {
     /// The last registration the motion gate refused (frame, `T_wc`): a next registration
     /// that agrees with it confirms both (the scope really is there).
     pending: Option<(usize, Pose)>,
+    /// The colon's scale followed so far, when the colon-scale step is on.
+    scale: Option<ScaleTrack>,
     /// Frames seen so far.
     frame: usize,
 }
@@ -64,6 +67,7 @@ impl LiveState {
         }
         self.motion.clear();
         self.pending = None;
+        self.scale = None;
         self.frame = 0;
     }
 }
@@ -78,6 +82,7 @@ impl Localizer {
             track: self.classifier.track_filter().ok(),
             motion: Track::default(),
             pending: None,
+            scale: None,
             frame: 0,
         }
     }
@@ -161,7 +166,7 @@ impl Localizer {
             self.track(prediction.as_ref(), features, None, untimed)?
         };
         let r = match tracked {
-            Tracked::Registered(r) => r,
+            Tracked::Registered(r) => *r,
             tracked => {
                 let (pred, zone_ms) = match zones {
                     Zones::Ready(p) => (Cow::Borrowed(p), times.zone_ms),
@@ -204,6 +209,7 @@ impl Localizer {
                 r
             }
         };
+        let r = self.scaled_live(r, &mut state.scale);
         let mut r = self.disambiguate(r, prediction.as_ref());
         if r.status == Status::Refined
             && let Some(t_wc) = r.t_wc
@@ -297,7 +303,7 @@ impl Localizer {
         let r = self.register_from(features, z, &p.t_wc, origin, score, times)?;
         let r = self.disambiguate(r, Some(p));
         if r.status == Status::Refined && r.t_wc.is_some_and(|t| p.compare(&t, &self.gate).agrees) {
-            return Ok(Tracked::Registered(r));
+            return Ok(Tracked::Registered(Box::new(r)));
         }
         Ok(Tracked::Failed(StageTimes {
             matching_ms: r.times.matching_ms,
@@ -324,7 +330,7 @@ impl Localizer {
         let mut spent = StageTimes::default();
         if tracked.is_none() {
             match self.track(prediction, features, Some(pred), times)? {
-                Tracked::Registered(r) => return Ok(r),
+                Tracked::Registered(r) => return Ok(*r),
                 Tracked::Failed(s) => spent = s,
                 Tracked::NotTried => {}
             }

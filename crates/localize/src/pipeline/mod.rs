@@ -22,6 +22,7 @@ mod config;
 mod frame;
 mod live;
 mod result;
+mod scale;
 
 pub use config::LocalizerConfig;
 pub use frame::{Localizer, RetryFeatures};

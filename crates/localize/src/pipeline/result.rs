@@ -1,6 +1,7 @@
 //! What the localizer says of one frame: pose, status, where the pose came from, times.
 
 use endoloc_geometry::{Pose, Reason, Status};
+use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
 /// Time spent in each stage of one frame, milliseconds.
@@ -92,6 +93,12 @@ pub struct FrameResult {
     /// Pixel positions of those inliers' keypoints in the test image (origin at the centre of
     /// the top-left pixel, x right, y down), in match order.
     pub inlier_px: Vec<[f32; 2]>,
+    /// The map points of those inliers (world, mm), in the order of `inlier_px`.
+    pub inlier_points: Vec<Point3<f64>>,
+    /// The colon's scale about its mid-line against the map's, when the pose was refined
+    /// with it ([`LocalizerConfig::colon_scale`](crate::LocalizerConfig::colon_scale));
+    /// `None` otherwise.
+    pub colon_scale: Option<f64>,
     /// RMS reprojection error of the inliers, pixels (NaN when no estimate).
     pub reprojection_rms_px: f64,
     /// Per-stage time.
@@ -120,6 +127,8 @@ impl FrameResult {
             correspondences: 0,
             inliers: 0,
             inlier_px: Vec::new(),
+            inlier_points: Vec::new(),
+            colon_scale: None,
             reprojection_rms_px: f64::NAN,
             times: StageTimes::default(),
         }
