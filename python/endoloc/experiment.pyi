@@ -2,6 +2,7 @@
 
 import os
 from collections.abc import Callable, Sequence as Seq
+from typing import Literal
 
 from ._endoloc import Report
 
@@ -16,6 +17,7 @@ def benchmark(
     dev_seeds: Seq[int] = ...,
     gca: Seq[StrPath] = ...,
     inflation: float | None = ...,
+    changes: Literal["none", "mild", "moderate", "severe"] | None = ...,
     train_frames: int | None = ...,
     test_frames: int | None = ...,
     zones: int | str = ...,
@@ -40,6 +42,8 @@ def benchmark(
       own rows, left out of the mean ± interval.
     - ``gca``: CT colons: GCA model folders.
     - ``inflation``: Lumen inflation of the CT colons.
+    - ``changes``: How each colon changes between its training and test pass (default
+      ``none``); the figures are then against the anatomical truth.
     - ``train_frames``: Frames of each training pass (default: the preset's).
     - ``test_frames``: Frames of each test pass (default: the preset's).
     - ``zones``: Zones: a count (uniform), or `expert` / `expert:N` (anatomical).

@@ -20,7 +20,7 @@ use endoloc_jobs::error::{Context, Result};
 use endoloc_jobs::note;
 use endoloc_jobs::progress::Progress;
 use endoloc_jobs::{SimulateJob, TrainJob};
-use endoloc_sim::Preset;
+use endoloc_sim::{Preset, Severity};
 
 /// The chain over several colons, resumable per colon.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -47,6 +47,13 @@ pub struct BenchmarkJob {
     /// Lumen inflation of the CT colons (see the simulate job's `inflation`).
     #[cfg_attr(feature = "cli", arg(long))]
     pub inflation: Option<f64>,
+    /// How each colon changes between its training and test pass (see the simulate job's
+    /// `changes`; default `none`): the figures are then against the anatomical truth.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "SEVERITY", value_parser = endoloc_jobs::severity_parser())
+    )]
+    pub changes: Option<Severity>,
     /// Frames of each training pass (default: the preset's).
     #[cfg_attr(feature = "cli", arg(long))]
     pub train_frames: Option<usize>,
@@ -100,6 +107,7 @@ impl Default for BenchmarkJob {
             dev_seeds: Vec::new(),
             gca: Vec::new(),
             inflation: None,
+            changes: None,
             train_frames: None,
             test_frames: None,
             zones: ZoneSpec::default(),
@@ -357,6 +365,9 @@ impl BenchmarkJob {
         if let Some(i) = self.inflation {
             c.push_str(&format!(" --inflation {i}"));
         }
+        if let Some(s) = self.changes {
+            c.push_str(&format!(" --changes {}", s.name()));
+        }
         if let Some(n) = self.train_frames {
             c.push_str(&format!(" --train-frames {n}"));
         }
@@ -494,6 +505,7 @@ impl BenchmarkJob {
                 seed: Some(c.seed),
                 gca: c.gca.clone(),
                 inflation: c.gca.as_ref().and(self.inflation),
+                changes: self.changes,
                 train_frames: self.train_frames,
                 test_frames: self.test_frames,
                 out: data.clone(),
@@ -587,7 +599,7 @@ impl BenchmarkJob {
         md.push_str(&format!(
             "{} colons ({}), `{}` preset{}, {} zones, zone network {}. Each figure is the mean over \
              the colons ± the half-width of its 95 % confidence interval (Student's t); errors are \
-             over the frames each method localizes.\n\n",
+             over the frames each method localizes.{}\n\n",
             unseen.len(),
             unseen
                 .iter()
@@ -601,6 +613,14 @@ impl BenchmarkJob {
                 "trained on each colon".to_string()
             } else {
                 format!("`{}` indexed without training", self.pretrained)
+            },
+            match self.changes {
+                Some(s) if s != Severity::None => format!(
+                    " Each test pass goes through its colon changed `{}` (simulate --changes); \
+                     errors are against the anatomical truth.",
+                    s.name()
+                ),
+                _ => String::new(),
             }
         ));
         md.push_str(&table);
@@ -835,6 +855,7 @@ mod tests {
             dev_seeds: vec![0],
             gca: vec!["../shared/data/gca-edin-00090".into()],
             inflation: Some(1.5),
+            changes: Some(Severity::Moderate),
             test_frames: Some(650),
             ..Default::default()
         };
@@ -850,7 +871,10 @@ mod tests {
         );
         assert!(c.contains("--seeds 1,2 --dev-seeds 0"), "{c}");
         assert!(c.contains("--gca ../shared/data/gca-edin-00090"));
-        assert!(c.contains("--inflation 1.5 --test-frames 650") && c.ends_with("--colon seed-2"));
+        assert!(
+            c.contains("--inflation 1.5 --changes moderate --test-frames 650")
+                && c.ends_with("--colon seed-2")
+        );
         assert!(job.command(None).ends_with("--merge"));
     }
 

@@ -60,6 +60,18 @@ pub use simulate::{SimulateJob, SimulateReport};
 pub use train::{TrainJob, TrainMethod, TrainReport};
 pub use view::{ViewJob, ViewReport};
 
+/// The value parser of a change severity (`none`, `mild`, `moderate`, `severe`).
+#[cfg(feature = "cli")]
+pub fn severity_parser() -> impl clap::builder::TypedValueParser<Value = endoloc_sim::Severity> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(endoloc_sim::Severity::ALL.map(|p| p.name())).map(
+        |s| {
+            s.parse::<endoloc_sim::Severity>()
+                .expect("a listed severity")
+        },
+    )
+}
+
 /// The value parser of a path option whose default is empty (the job then picks the path, or
 /// asks for one): clap's own path parser refuses an empty value, its default included.
 #[cfg(feature = "cli")]

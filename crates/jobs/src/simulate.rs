@@ -116,10 +116,7 @@ pub struct SimulateJob {
     /// docs/SIMULATOR.md lists what each level means.
     #[cfg_attr(
         feature = "cli",
-        arg(long, value_name = "SEVERITY",
-            value_parser = clap::builder::TypedValueParser::map(
-                clap::builder::PossibleValuesParser::new(Severity::ALL.map(|p| p.name())),
-                |s| s.parse::<Severity>().expect("a listed severity")))
+        arg(long, value_name = "SEVERITY", value_parser = crate::severity_parser())
     )]
     pub changes: Option<Severity>,
     /// Output dataset folder (created; must not exist unless `force`).
