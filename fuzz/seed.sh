@@ -33,6 +33,9 @@ def fixture(rel, max_lines=None):
 # --- text formats -------------------------------------------------------------------------
 put("tum", "poses.txt", "# timestamp tx ty tz qx qy qz qw\n0.0 1 2 3 0 0 0 1\n0.033 1.5 2 3 0 0 0.7071068 0.7071068\n")
 put("tum", "evo_gt.txt", fixture("crates/eval/tests/fixtures/evo/gt.txt", 8))
+put("tracker_log", "em.csv", "time_ms,x [mm],y,z,qx,qy,qz,qw,missing\n0,1,2,3,0,0,0,1,0\n10,,,,,,,,1\n20,1.5,2,3,0,0,0.7071068,0.7071068,0\n")
+put("tracker_log", "matrix.csv", "t;px;py;pz;r11;r12;r13;r21;r22;r23;r31;r32;r33;valid\n0.5;1;2;3;1;0;0;0;1;0;0;0;1;true\n")
+put("tracker_log", "tum.txt", "# t x y z qx qy qz qw\n0.0 1 2 3 0 0 0 1\n0.01 1.5 2 3 0 0 0.7071068 0.7071068\n")
 
 put("dataset_toml", "dataset.toml", """# endoloc dataset, format version 1: lengths in mm, poses T_wc (camera-to-world)
 name = "fuzz"

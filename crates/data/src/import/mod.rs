@@ -6,7 +6,9 @@
 //! - [`simcol3d`]: SimCol3D (Unity, left-handed, cm; optional `Depth_NNNN.png`);
 //! - [`endoslam`]: EndoSLAM (UnityCam CSV poses; ex-vivo `.xlsx` pose sheets with undocumented
 //!   units);
-//! - [`split`]: cutting one imported recording into train/test sequences.
+//! - [`split`]: cutting one imported recording into train/test sequences;
+//! - [`tracker`]: pose logs of a tracker or robot on their own clock (CSV, TUM), resampled at a
+//!   recording's frame times, with the clock offset found from the images.
 //!
 //! Every reader returns an [`ImportedSequence`] (image files, optional depth files and converted
 //! poses, in frame order); [`write_import`] then writes the dataset through
@@ -18,6 +20,7 @@ pub mod endoslam;
 pub mod simcol3d;
 pub mod split;
 mod table;
+pub mod tracker;
 
 use crate::dataset::{DatasetMeta, DatasetWriter, SequenceWriter};
 use crate::{DataError, StampedPose};
