@@ -8,8 +8,11 @@ use endoloc_data::import::c3vd::{C3vdConfig, read_c3vd};
 use endoloc_data::import::endoslam::{EndoSlamConfig, Units, read_endoslam};
 use endoloc_data::import::simcol3d::{SimCol3dConfig, read_simcol3d};
 use endoloc_data::import::split::{parse_split, split_sequence};
+use endoloc_data::import::tracker::{OffsetEstimate, TrackerLogConfig, read_pose_log};
+use endoloc_data::import::video::{VideoConfig, VideoImport, VideoTime, read_video};
 use endoloc_data::import::{ImportSummary, ImportedSequence, WriteImportConfig, write_import};
-use endoloc_geometry::{Camera, Distortion};
+use endoloc_geometry::{Camera, Distortion, Pose, pose_from_matrix};
+use nalgebra::Matrix4;
 use serde::{Deserialize, Serialize};
 
 use crate::bail;
@@ -42,6 +45,13 @@ pub enum ImportFormat {
     /// ImageFrame). The length unit and the camera are not documented: give both (`units`,
     /// `camera`).
     Endoslam,
+    /// A video file (MP4/H.264, MKV, AVI/MJPEG, MOV: whatever FFmpeg decodes; `ffmpeg` and
+    /// `ffprobe` must be installed) with the pass's pose log (`poses`: a tracker CSV with a
+    /// header, or TUM; `units`, default mm), on the log's own clock (`time_offset`, or
+    /// `auto`: found from the images), resampled at each frame's time from the container;
+    /// frames without a pose within `max_gap_ms` are left out and listed. The camera
+    /// (`camera`) is required: a video carries no intrinsics.
+    Video,
 }
 
 impl ImportFormat {
@@ -51,6 +61,7 @@ impl ImportFormat {
             ImportFormat::C3vd => "c3vd",
             ImportFormat::Simcol3d => "simcol3d",
             ImportFormat::Endoslam => "endoslam",
+            ImportFormat::Video => "video",
         }
     }
 }
@@ -114,13 +125,33 @@ pub struct ImportJob {
     /// SavedPosition_S1.txt).
     #[cfg_attr(feature = "cli", arg(long))]
     pub sequence: Option<String>,
-    /// EndoSLAM: length unit of the pose file (required).
+    /// EndoSLAM (required) and video (default mm): length unit of the pose file.
     #[cfg_attr(feature = "cli", arg(long, value_parser = ["mm", "cm", "m"]))]
     pub units: Option<String>,
     /// EndoSLAM: pose file, .csv or .xlsx (default: the only .csv or .xlsx in SRC/Poses,
-    /// else in SRC).
+    /// else in SRC). Video: the pass's pose log (required).
     #[cfg_attr(feature = "cli", arg(long))]
     pub poses: Option<PathBuf>,
+    /// Video: the pose log of the `test` video.
+    #[cfg_attr(feature = "cli", arg(long, requires = "test"))]
+    pub test_poses: Option<PathBuf>,
+    /// Video: log time of a frame = its time in the video + this many seconds, or `auto`
+    /// (found by matching the image motion to the tracker's speed, within ±5 s; the report
+    /// gives the offset and how clearly it stood out).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ImportJob::default().time_offset))]
+    pub time_offset: String,
+    /// Video: a frame gets a pose only when valid log samples lie within this on both sides,
+    /// milliseconds.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ImportJob::default().max_gap_ms))]
+    pub max_gap_ms: f64,
+    /// Video: the hand-eye transform, a text file with the 4×4 matrix `T_sc` (the camera in
+    /// the tracked sensor's frame; four rows of four numbers, translation in the log's
+    /// `units`), when the log is the sensor's and not the camera's.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "FILE"))]
+    pub sensor_to_camera: Option<PathBuf>,
+    /// Video: keep every N-th frame.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ImportJob::default().every))]
+    pub every: usize,
     /// EndoSLAM: worksheet of an .xlsx pose file (default: the first sheet whose header row
     /// has an ImageFrame column, else the first sheet).
     #[cfg_attr(feature = "cli", arg(long))]
@@ -153,6 +184,11 @@ impl Default for ImportJob {
             sequence: None,
             units: None,
             poses: None,
+            test_poses: None,
+            time_offset: "0".into(),
+            max_gap_ms: 50.0,
+            sensor_to_camera: None,
+            every: 1,
             sheet: None,
             frames: None,
             command: None,
@@ -167,6 +203,71 @@ pub struct ImportReport {
     pub format: ImportFormat,
     /// Folder, camera and sequences written.
     pub summary: ImportSummary,
+    /// Video: each pass's clock offset and the frames left without a pose.
+    pub videos: Vec<VideoPass>,
+}
+
+/// One imported video pass.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VideoPass {
+    /// Sequence name.
+    pub name: String,
+    /// Log time = video time + this, seconds.
+    pub offset_s: f64,
+    /// How it was found, with `time_offset` auto.
+    pub estimate: Option<OffsetEstimate>,
+    /// Frames of the video (0-based, before `every`) left without a pose, with their times in
+    /// the video, seconds.
+    pub unposed: Vec<(usize, f64)>,
+}
+
+/// Reads a 4×4 rigid transform from a text file (four rows of four numbers), translation in
+/// `units`, as a pose in mm.
+fn read_transform(path: &Path, units: Units) -> Result<Pose> {
+    let text = std::fs::read_to_string(path).map_err(|e| JobError::Data(DataError::io(path, e)))?;
+    let mut values = Vec::new();
+    for (i, l) in text.lines().enumerate() {
+        let l = l.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let row: Vec<&str> = l
+            .split([' ', ',', '\t'])
+            .filter(|c| !c.is_empty())
+            .collect();
+        if row.len() != 4 {
+            return Err(DataError::parse(
+                path,
+                i + 1,
+                format!(
+                    "{} numbers; expected 4 (a row of the 4×4 matrix)",
+                    row.len()
+                ),
+            )
+            .into());
+        }
+        for c in row {
+            values.push(c.parse::<f64>().map_err(|_| {
+                JobError::from(DataError::parse(
+                    path,
+                    i + 1,
+                    format!("{c:?} is not a number"),
+                ))
+            })?);
+        }
+    }
+    if values.len() != 16 {
+        return Err(DataError::invalid(
+            path,
+            format!("{} rows; expected 4 (a 4×4 matrix)", values.len() / 4),
+        )
+        .into());
+    }
+    let mut m = Matrix4::from_row_slice(&values);
+    for r in 0..3 {
+        m[(r, 3)] *= units.mm_per_unit();
+    }
+    pose_from_matrix(&m, 1e-3).map_err(|e| DataError::invalid(path, e).into())
 }
 
 /// Parses `W,H,FX,FY,CX,CY` (and, when `allow_fisheye`, 4 more fisheye coefficients).
@@ -254,12 +355,7 @@ impl ImportJob {
                 Box::new(move |p| read_simcol3d(p, if p == first { &cfg } else { &test_cfg }))
             }
             ImportFormat::Endoslam => {
-                let units = match self.units.as_deref() {
-                    Some("mm") => Units::Mm,
-                    Some("cm") => Units::Cm,
-                    Some("m") => Units::M,
-                    other => bail!("endoslam: `units` {other:?}; expected mm, cm or m"),
-                };
+                let units = self.units_or(None)?;
                 let cfg = EndoSlamConfig {
                     camera: camera(false)
                         .context("endoslam: the camera (`camera` W,H,FX,FY,CX,CY) is required")??,
@@ -277,7 +373,82 @@ impl ImportJob {
                 };
                 Box::new(move |p| read_endoslam(p, if p == first { &cfg } else { &test_cfg }))
             }
+            ImportFormat::Video => bail!("video: read with `ImportJob::read_videos`"),
         })
+    }
+
+    /// The length unit of the pose file: `units`, or `default` when not given.
+    fn units_or(&self, default: Option<Units>) -> Result<Units> {
+        Ok(match self.units.as_deref() {
+            Some("mm") => Units::Mm,
+            Some("cm") => Units::Cm,
+            Some("m") => Units::M,
+            None if let Some(d) = default => d,
+            other => bail!(
+                "{}: `units` {other:?}; expected mm, cm or m",
+                self.format.name()
+            ),
+        })
+    }
+
+    /// Video: decodes `src` (and `test`) with their pose logs.
+    fn read_videos(&self) -> Result<Vec<(String, VideoImport)>> {
+        let camera = parse_camera(
+            self.camera
+                .as_deref()
+                .context("video: the camera (`camera` W,H,FX,FY,CX,CY) is required: a video carries no intrinsics")?,
+            true,
+        )?;
+        let units = self.units_or(Some(Units::Mm))?;
+        let time = match self.time_offset.trim() {
+            "auto" => VideoTime::Auto { max_s: 5.0 },
+            t => VideoTime::Offset(t.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(
+                || {
+                    JobError::Invalid(format!(
+                        "`time_offset` {t:?}; expected seconds (e.g. 0.35) or auto"
+                    ))
+                },
+            )?),
+        };
+        if !(self.max_gap_ms.is_finite() && self.max_gap_ms > 0.0) {
+            bail!(
+                "`max_gap_ms` = {}; expected a finite value > 0",
+                self.max_gap_ms
+            );
+        }
+        let sensor_to_camera = match &self.sensor_to_camera {
+            Some(p) => Some(read_transform(p, units)?),
+            None => None,
+        };
+        let mut passes = vec![("train", &self.src, self.poses.as_ref())];
+        if let Some(t) = &self.test {
+            passes.push(("test", t, self.test_poses.as_ref()));
+        } else {
+            passes[0].0 = self.seq.as_str();
+        }
+        let mut out = Vec::new();
+        for (name, video, poses) in passes {
+            let poses = poses.with_context(|| {
+                format!(
+                    "video {}: its pose log is required (`{}`): an endoloc dataset holds a pose per frame",
+                    video.display(),
+                    if name == "test" && self.test.is_some() { "test_poses" } else { "poses" }
+                )
+            })?;
+            let log = read_pose_log(poses, &TrackerLogConfig { units })?;
+            let cfg = VideoConfig {
+                camera,
+                log,
+                time,
+                max_gap_s: self.max_gap_ms / 1000.0,
+                sensor_to_camera,
+                every: self.every,
+            };
+            let v = read_video(video, &cfg)
+                .with_context(|| format!("reading video {}", video.display()))?;
+            out.push((name.to_string(), v));
+        }
+        Ok(out)
     }
 
     /// Reads the recording(s) and writes the dataset.
@@ -286,12 +457,35 @@ impl ImportJob {
     /// Invalid settings, an unreadable recording, an existing `out` without `force`, or a
     /// failed write.
     pub fn run(&self, _progress: &dyn Progress) -> Result<ImportReport> {
+        // Decoded videos keep their frames on disk while they live: until the dataset is
+        // written.
+        let videos = if self.format == ImportFormat::Video {
+            if self.split.is_some() {
+                bail!("video: `split` is not supported; import each pass as its own video");
+            }
+            self.read_videos()?
+        } else {
+            Vec::new()
+        };
+        let sequences = if !videos.is_empty() {
+            videos
+                .iter()
+                .map(|(name, v)| (name.clone(), v.sequence.clone()))
+                .collect()
+        } else {
+            self.read_sequences()?
+        };
+        self.write(&sequences, &videos)
+    }
+
+    /// Reads the recording(s) of a format other than video.
+    fn read_sequences(&self) -> Result<Vec<(String, ImportedSequence)>> {
         let format = self.format.name();
         let read = self.reader()?;
         let src = &self.src;
         let main =
             read(src).with_context(|| format!("reading {format} recording {}", src.display()))?;
-        let sequences = if let Some(spec) = &self.split {
+        Ok(if let Some(spec) = &self.split {
             let parts =
                 parse_split(spec).map_err(|e| JobError::Invalid(format!("`split`: {e}")))?;
             split_sequence(&main, &parts)?
@@ -301,7 +495,17 @@ impl ImportJob {
             vec![("train".to_string(), main), ("test".to_string(), t)]
         } else {
             vec![(self.seq.clone(), main)]
-        };
+        })
+    }
+
+    /// Writes the dataset.
+    fn write(
+        &self,
+        sequences: &[(String, ImportedSequence)],
+        videos: &[(String, VideoImport)],
+    ) -> Result<ImportReport> {
+        let format = self.format.name();
+        let src = &self.src;
         let mut source = toml::Table::new();
         source.insert("tool".into(), format!("endoloc import {format}").into());
         source.insert("version".into(), env!("CARGO_PKG_VERSION").into());
@@ -314,6 +518,12 @@ impl ImportJob {
             recordings.push(t.display().to_string().into());
         }
         source.insert("recordings".into(), toml::Value::Array(recordings));
+        for (name, v) in videos {
+            source.insert(
+                format!("{name}_time_offset_s"),
+                toml::Value::Float(v.offset_s),
+            );
+        }
         let name = self.name.clone().unwrap_or_else(|| {
             self.out.file_name().map_or_else(
                 || format!("{format} import"),
@@ -322,7 +532,7 @@ impl ImportJob {
         });
         let summary = write_import(
             &self.out,
-            &sequences,
+            sequences,
             &WriteImportConfig {
                 name,
                 undistort: self.undistort && self.format == ImportFormat::C3vd,
@@ -339,7 +549,7 @@ impl ImportJob {
             },
             source: Box::new(e.into()),
         })?;
-        for (_, s) in &sequences {
+        for (_, s) in sequences {
             for n in &s.notes {
                 tracing::info!("{}: {n}", s.source.display());
             }
@@ -347,6 +557,15 @@ impl ImportJob {
         Ok(ImportReport {
             format: self.format,
             summary,
+            videos: videos
+                .iter()
+                .map(|(name, v)| VideoPass {
+                    name: name.clone(),
+                    offset_s: v.offset_s,
+                    estimate: v.estimate,
+                    unposed: v.unposed.clone(),
+                })
+                .collect(),
         })
     }
 }
@@ -378,6 +597,31 @@ impl fmt::Display for ImportReport {
                 "\n  {name}: {frames} frames{}",
                 if *depth { ", depth" } else { "" }
             )?;
+            if let Some(v) = self.videos.iter().find(|v| &v.name == name) {
+                match &v.estimate {
+                    Some(e) => write!(
+                        f,
+                        "; clock offset found: log = video + {:.3} s (fit R {:.2}, margin {:.2})",
+                        e.offset_s, e.correlation, e.margin
+                    )?,
+                    None => write!(f, "; clock offset {} s", v.offset_s)?,
+                }
+                if !v.unposed.is_empty() {
+                    let shown: Vec<String> = v
+                        .unposed
+                        .iter()
+                        .take(8)
+                        .map(|(i, t)| format!("{i} ({t:.2} s)"))
+                        .collect();
+                    write!(
+                        f,
+                        "; {} frames without a pose left out: {}{}",
+                        v.unposed.len(),
+                        shown.join(", "),
+                        if v.unposed.len() > 8 { ", …" } else { "" }
+                    )?;
+                }
+            }
         }
         Ok(())
     }

@@ -8,7 +8,8 @@
 //!   units);
 //! - [`split`]: cutting one imported recording into train/test sequences;
 //! - [`tracker`]: pose logs of a tracker or robot on their own clock (CSV, TUM), resampled at a
-//!   recording's frame times, with the clock offset found from the images.
+//!   recording's frame times, with the clock offset found from the images;
+//! - [`video`]: a video file (decoded with FFmpeg) with such a log.
 //!
 //! Every reader returns an [`ImportedSequence`] (image files, optional depth files and converted
 //! poses, in frame order); [`write_import`] then writes the dataset through
@@ -21,6 +22,7 @@ pub mod simcol3d;
 pub mod split;
 mod table;
 pub mod tracker;
+pub mod video;
 
 use crate::dataset::{DatasetMeta, DatasetWriter, SequenceWriter};
 use crate::{DataError, StampedPose};

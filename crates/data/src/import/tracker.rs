@@ -90,6 +90,24 @@ pub struct PoseLog {
     pub notes: Vec<String>,
 }
 
+impl PoseLog {
+    /// The log of the camera, for a log of the sensor with the hand-eye transform `t_sc` (the
+    /// camera in the sensor's frame, mm): every valid pose becomes `T_ws · T_sc`.
+    pub fn to_camera(&self, t_sc: &Pose) -> PoseLog {
+        PoseLog {
+            samples: self
+                .samples
+                .iter()
+                .map(|s| PoseSample {
+                    pose: s.pose.map(|p| p * t_sc),
+                    ..*s
+                })
+                .collect(),
+            ..self.clone()
+        }
+    }
+}
+
 /// Reads a pose log (see the module docs for the formats and checks).
 ///
 /// # Errors
@@ -517,8 +535,8 @@ fn speeds_at(valid: &[(f64, Pose)], t: f64, h: f64, max_gap_s: f64) -> Option<(f
 pub struct OffsetEstimate {
     /// Log time of a frame = its time + this, seconds.
     pub offset_s: f64,
-    /// Multiple correlation of the image motion with the tracker's speeds at that offset
-    /// (0 … 1).
+    /// Square root of the fraction of the image motion's variance the tracker's speeds explain
+    /// at that offset (0 … 1).
     pub correlation: f64,
     /// How much better it is than the best offset more than [`OffsetSearch::separation_s`]
     /// away: the difference of the two correlations (0 = as good, ambiguous).
@@ -557,8 +575,9 @@ impl Default for OffsetSearch {
 /// time between their times; any measure that grows with the motion, such as
 /// [`frame_motion`]) is best explained by the tracker's speed: by a linear fit on its
 /// translation and rotation speeds (an endoscope's image moves with both, in proportions that
-/// depend on the scene), scored by the fit's multiple correlation. `None` when no offset has
-/// [`OffsetSearch::min_frames`] overlapping frames.
+/// depend on the scene), scored by the square root of the fraction of the image motion's
+/// variance it explains over *all* frames (those the log does not cover at that offset count
+/// as unexplained). `None` when no offset has [`OffsetSearch::min_frames`] overlapping frames.
 pub fn estimate_time_offset(
     log: &PoseLog,
     frame_times_s: &[f64],
@@ -581,19 +600,30 @@ pub fn estimate_time_offset(
         .filter(|(_, h, _)| *h > 0.0)
         .collect();
     let gap = 0.25;
+    // Every frame pair counts at every offset: one the log does not cover there is left
+    // unexplained (its motion's deviation from the mean), so a short overlap cannot win by
+    // chance.
+    let n_pairs = pairs.len().max(1) as f64;
+    let mean = pairs.iter().map(|p| p.2).sum::<f64>() / n_pairs;
+    let total: f64 = pairs.iter().map(|p| (p.2 - mean).powi(2)).sum();
     let score = |offset: f64| -> Option<(f64, usize)> {
         let mut speed = Vec::with_capacity(pairs.len());
         let mut motion = Vec::with_capacity(pairs.len());
+        let mut unexplained = 0.0;
         for &(t, h, m) in &pairs {
-            if let Some(s) = speeds_at(&valid, t + offset, h, gap) {
-                speed.push(s);
-                motion.push(m);
+            match speeds_at(&valid, t + offset, h, gap) {
+                Some(s) => {
+                    speed.push(s);
+                    motion.push(m);
+                }
+                None => unexplained += (m - mean).powi(2),
             }
         }
-        if speed.len() < search.min_frames {
+        if speed.len() < search.min_frames || total <= 0.0 {
             return None;
         }
-        Some((fit_correlation(&speed, &motion), speed.len()))
+        let residual = fit_residual(&speed, &motion)? + unexplained;
+        Some(((1.0 - residual / total).max(0.0).sqrt(), speed.len()))
     };
     let steps = (search.max_s / search.step_s).round() as i64;
     let scores: Vec<(f64, Option<(f64, usize)>)> = (-steps..=steps)
@@ -634,11 +664,10 @@ pub fn estimate_time_offset(
     })
 }
 
-/// How well `motion` is explained by `a·v + b·ω + c` over the `(v, ω)` speeds (least squares):
-/// the multiple correlation coefficient `R` (0 … 1; 0 when `motion` is constant or the fit
-/// fails).
-fn fit_correlation(speed: &[(f64, f64)], motion: &[f64]) -> f64 {
-    // Both speeds, or either alone when the other does not vary (a log without rotation).
+/// The residual sum of squares of `motion` fitted by `a·v + b·ω + c` over the `(v, ω)` speeds
+/// (least squares; both speeds, or the better of either alone when one does not vary, as in a
+/// log without rotation); `None` when no fit can be made.
+fn fit_residual(speed: &[(f64, f64)], motion: &[f64]) -> Option<f64> {
     [(true, true), (true, false), (false, true)]
         .iter()
         .filter_map(|&(use_v, use_w)| {
@@ -663,16 +692,15 @@ fn fit_correlation(speed: &[(f64, f64)], motion: &[f64]) -> f64 {
                 }
             }
             let coef = ata.cholesky()?.solve(&atb);
-            let n = motion.len().max(1) as f64;
-            let mean = motion.iter().sum::<f64>() / n;
-            let (mut res, mut tot) = (0.0, 0.0);
-            for (&s, &m) in speed.iter().zip(motion) {
-                res += (m - coef.dot(&row(s))).powi(2);
-                tot += (m - mean).powi(2);
-            }
-            (tot > 0.0).then(|| (1.0 - res / tot).max(0.0).sqrt())
+            Some(
+                speed
+                    .iter()
+                    .zip(motion)
+                    .map(|(&s, &m)| (m - coef.dot(&row(s))).powi(2))
+                    .sum::<f64>(),
+            )
         })
-        .fold(0.0, f64::max)
+        .min_by(f64::total_cmp)
 }
 
 /// How much the image moved between two frames of one size: the mean absolute difference of

@@ -1,11 +1,12 @@
-//! `endoloc import`: convert C3VD, SimCol3D and EndoSLAM recordings into an endoloc dataset.
+//! `endoloc import`: convert C3VD, SimCol3D and EndoSLAM recordings, or a video with a tracker
+//! log, into an endoloc dataset.
 
 use anyhow::Result;
 use endoloc_jobs::{ImportJob, Progress};
 
-/// Import a public colonoscopy dataset (FORMAT c3vd, simcol3d or endoslam; see below) as an
-/// endoloc dataset (format v1: mm, T_wc camera-to-world, OpenCV camera axes, TUM poses.txt,
-/// PNG images, 16-bit depth PNG).
+/// Import a public colonoscopy dataset (FORMAT c3vd, simcol3d or endoslam), or a video file
+/// with its tracker's pose log (FORMAT video; see below), as an endoloc dataset (format v1:
+/// mm, T_wc camera-to-world, OpenCV camera axes, TUM poses.txt, PNG images, 16-bit depth PNG).
 ///
 /// One recording becomes one sequence (default `train`); cut it into train/test with
 /// --split, or add a second recording of the same colon as `test` with --test.
@@ -25,6 +26,10 @@ use endoloc_jobs::{ImportJob, Progress};
 ///
 ///   endoloc import endoslam ExVivo/Colon-IV --poses ExVivo/Colon-IV/Poses/poses.xlsx \
 ///       --sheet Sheet1 --units mm --camera W,H,FX,FY,CX,CY --out data/endoslam_colon_iv
+///
+///   endoloc import video pass1.mp4 --poses em1.csv --test pass2.mp4 --test-poses em2.csv \
+///       --camera 1280,1024,700,700,639.5,511.5 --time-offset auto \
+///       --sensor-to-camera hand_eye.txt --out data/mine
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {

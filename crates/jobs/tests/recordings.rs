@@ -1,7 +1,9 @@
-//! A tracker log on its own clock against a rendered pass: the log is written at 100 Hz from the
-//! pass's true camera path, 0.35 s off the video's clock, for a sensor 5 mm behind the camera,
-//! with two 200 ms dropouts; the clock offset is found from the images alone, and the camera
-//! poses resampled at the frame times match the pass's own.
+//! Recordings as they come: a rendered pass and a tracker log on its own clock, written at
+//! 100 Hz from the pass's true camera path, 0.35 s off the video's clock, for a sensor 5 mm
+//! behind the camera, with two 200 ms dropouts. From the PNG frames: the clock offset is found
+//! from the images alone and the resampled camera poses match the pass's own. As a video (H.264
+//! MP4 and MJPEG AVI, encoded with FFmpeg; skipped with a message without it): `import video`
+//! finds the offset, leaves the dropout frames out and lists them, and gives the pass's poses.
 
 use endoloc_data::import::endoslam::Units;
 use endoloc_data::import::tracker::{
@@ -9,13 +11,13 @@ use endoloc_data::import::tracker::{
     frame_motion, parse_pose_log, poses_at,
 };
 use endoloc_geometry::Pose;
-use endoloc_jobs::{Silent, SimulateJob};
+use endoloc_jobs::{ImportFormat, ImportJob, Silent, SimulateJob};
 use nalgebra::{Translation3, UnitQuaternion};
 
 const OFFSET_S: f64 = 0.35;
 
 #[test]
-fn a_known_clock_offset_is_found_and_the_poses_come_back() {
+fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video() {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("data");
     SimulateJob {
@@ -80,6 +82,7 @@ fn a_known_clock_offset_is_found_and_the_poses_come_back() {
             None => csv.push_str(&format!("{log_time},,,,,,,,0\n")),
         }
     }
+    let csv_text = csv.clone();
     let log = parse_pose_log(
         std::path::Path::new("tracker.csv"),
         csv.into_bytes(),
@@ -158,4 +161,128 @@ fn a_known_clock_offset_is_found_and_the_poses_come_back() {
     };
     assert!(unposed.iter().all(|&i| in_dropout(i)), "{unposed:?}");
     assert!(unposed.len() >= 10, "{unposed:?}");
+
+    // The same pass as a video file.
+    let ffmpeg_ok = std::process::Command::new("ffmpeg")
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ffmpeg_ok {
+        eprintln!("skipped: import video needs ffmpeg (Debian: apt install ffmpeg)");
+        return;
+    }
+    let root = tmp.path();
+    std::fs::write(root.join("tracker.csv"), &csv_text).unwrap();
+    std::fs::write(
+        root.join("hand_eye.txt"),
+        "1 0 0 0\n0 1 0 0\n0 0 1 5\n0 0 0 1\n",
+    )
+    .unwrap();
+    let c = &endoloc_data::Dataset::open(&data).unwrap().meta.camera;
+    let camera = format!(
+        "{},{},{},{},{},{}",
+        c.width, c.height, c.fx, c.fy, c.cx, c.cy
+    );
+    for (file, codec) in [
+        (
+            "pass.mp4",
+            &["-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "18"][..],
+        ),
+        ("pass.avi", &["-c:v", "mjpeg", "-q:v", "2"][..]),
+    ] {
+        let video = root.join(file);
+        let status = std::process::Command::new("ffmpeg")
+            .args(["-v", "error", "-y", "-framerate", "30", "-i"])
+            .arg(seq.dir.join("images/%06d.png"))
+            .args(codec)
+            .arg(&video)
+            .status()
+            .unwrap();
+        assert!(status.success(), "encoding {file}");
+        let import = |time_offset: &str, out: &str| {
+            ImportJob {
+                format: ImportFormat::Video,
+                src: video.clone(),
+                out: root.join(out),
+                poses: Some(root.join("tracker.csv")),
+                camera: Some(camera.clone()),
+                time_offset: time_offset.into(),
+                sensor_to_camera: Some(root.join("hand_eye.txt")),
+                ..ImportJob::default()
+            }
+            .run(&Silent)
+            .unwrap()
+        };
+        let report = import("auto", &format!("{file}-auto"));
+        let pass = &report.videos[0];
+        eprintln!("{file}: {report}");
+        assert!(
+            (pass.offset_s - OFFSET_S).abs() < frame_s,
+            "{file}: {pass:?}"
+        );
+        assert!(
+            pass.unposed.iter().all(|&(i, _)| in_dropout(i)) && pass.unposed.len() >= 10,
+            "{file}: {:?}",
+            pass.unposed
+        );
+        // With the true offset, each imported frame has the pass's own pose (codec loss does
+        // not touch poses): the same frames as from the PNGs.
+        let report = import(&OFFSET_S.to_string(), &format!("{file}-exact"));
+        let imported = endoloc_data::Dataset::open(&report.summary.dir)
+            .unwrap()
+            .sequence("train")
+            .unwrap();
+        let (_, unposed) = resample(OFFSET_S);
+        assert_eq!(imported.len() + unposed.len(), seq.len(), "{file}");
+        for p in &imported.poses {
+            let truth = seq
+                .poses
+                .iter()
+                .find(|t| (t.timestamp_s - p.timestamp_s).abs() < 1e-4)
+                .expect("a frame of the pass");
+            let err = (p.pose.translation.vector - truth.pose.translation.vector).norm();
+            assert!(
+                err < 0.5,
+                "{file}: frame at {} s is {err:.3} mm off",
+                p.timestamp_s
+            );
+        }
+    }
+
+    // Damaged videos are refused, naming the file, and nothing is written: truncated, and a
+    // run of corrupt bytes in the middle.
+    let good = std::fs::read(root.join("pass.mp4")).unwrap();
+    let mut corrupt = good.clone();
+    let mid = corrupt.len() / 2;
+    corrupt[mid..mid + 2000].fill(0xAB);
+    for (name, bytes) in [
+        ("truncated.mp4", good[..good.len() / 2].to_vec()),
+        ("corrupt.mp4", corrupt),
+    ] {
+        let video = root.join(name);
+        std::fs::write(&video, bytes).unwrap();
+        let out = root.join(format!("{name}-data"));
+        let err = ImportJob {
+            format: ImportFormat::Video,
+            src: video,
+            out: out.clone(),
+            poses: Some(root.join("tracker.csv")),
+            camera: Some(camera.clone()),
+            ..ImportJob::default()
+        }
+        .run(&Silent)
+        .unwrap_err();
+        let mut message = err.to_string();
+        let mut source = std::error::Error::source(&err);
+        while let Some(e) = source {
+            message = format!("{message}: {e}");
+            source = e.source();
+        }
+        assert!(
+            message.contains(name)
+                && (message.contains("damaged") || message.contains("cannot decode")),
+            "{message}"
+        );
+        assert!(!out.exists(), "{name}: nothing is written");
+    }
 }
