@@ -296,6 +296,23 @@ fn frame(data: &Path, seq: &str, i: usize) -> PathBuf {
     data.join(seq).join("images").join(format!("{i:06}.png"))
 }
 
+/// `import video` of a (missing) video with the pose log `log`: the log is read and checked
+/// before the video is decoded.
+fn video_import(dir: &Path, log: &str) -> Vec<String> {
+    let log = write(&dir.join("tracker.csv"), log);
+    args(&[
+        "import",
+        "video",
+        &s(&dir.join("pass.mp4")),
+        "--poses",
+        &s(&log),
+        "--camera",
+        "160,120,80,80,79.5,59.5",
+        "--out",
+        &s(&dir.join("imported")),
+    ])
+}
+
 fn write(path: &Path, text: &str) -> PathBuf {
     std::fs::write(path, text).unwrap();
     path.to_path_buf()
@@ -920,6 +937,35 @@ fn catalogue() -> Vec<Case> {
                     &s(&d.join("imported")),
                 ])
             },
+        ),
+        case(
+            "tracker log with time stamps out of order (import video)",
+            &[
+                "tracker.csv:4",
+                "is before that of line 3",
+                "expected increasing time stamps",
+            ],
+            |_, d| {
+                video_import(
+                    d,
+                    "t,x,y,z,qx,qy,qz,qw\n0,0,0,0,0,0,0,1\n0.2,1,0,0,0,0,0,1\n0.1,2,0,0,0,0,0,1\n",
+                )
+            },
+        ),
+        case(
+            "tracker log with NaN in a row not flagged missing (import video)",
+            &["tracker.csv:3", "x", "expected a finite number"],
+            |_, d| {
+                video_import(
+                    d,
+                    "t,x,y,z,qx,qy,qz,qw,missing\n0,0,0,0,0,0,0,1,0\n0.1,nan,0,0,0,0,0,1,0\n",
+                )
+            },
+        ),
+        case(
+            "tracker log without orientation columns (import video)",
+            &["tracker.csv", "orientation columns"],
+            |_, d| video_import(d, "time,x,y,z\n0,0,0,0\n"),
         ),
         // ---- run configs and experiments ----
         case(
