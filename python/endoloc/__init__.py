@@ -6,7 +6,7 @@ The same library as the ``endoloc`` command line, in process:
   ``float64`` arrays (``T_wc``, camera-to-world, millimetres), the camera;
 - ``Model.load(path)``: the zone classifier (``classify``, ``describe``);
 - ``Localizer(model, live=True)``: ``localize(image)`` frame by frame, as ``endoloc localize``;
-- the jobs — ``simulate``, ``train``, ``map``, ``localize``, ``eval``, ``classify``, ``view``,
+- the jobs — ``simulate``, ``import_video``, ``train``, ``map``, ``localize``, ``eval``, ``classify``, ``view``,
   ``features``, ``pretrain``, ``demo``, ``run`` and ``experiment.benchmark`` / ``compare`` / ``zones`` /
   ``expert`` / ``perturb`` — with the command line's options as keyword arguments
   (``--images-per-zone 8`` is ``images_per_zone=8``);
@@ -58,6 +58,7 @@ __all__ = [
     "eval",
     "experiment",
     "features",
+    "import_video",
     "localize",
     "map",
     "options",
@@ -78,6 +79,20 @@ def simulate(*, progress=None, **options) -> Dataset:
     ``train_frames``, …). Returns the new ``Dataset``.
     """
     report = job("simulate", progress, options)
+    return Dataset(report.out)
+
+
+def import_video(video, *, progress=None, **options) -> Dataset:
+    """A video file with its pass's tracker pose log as a dataset (``endoloc import video``),
+    opened.
+
+    Keyword arguments are ``endoloc import``'s options (``out``, ``poses``, ``camera``,
+    ``time_offset``, ``sensor_to_camera``, ``test``, ``test_poses``, …). Returns the new
+    ``Dataset``.
+    """
+    if "time_offset" in options and not isinstance(options["time_offset"], str):
+        options["time_offset"] = repr(float(options["time_offset"]))  # seconds, or "auto"
+    report = job("import", progress, {"format": "video", "src": video, **options})
     return Dataset(report.out)
 
 

@@ -98,6 +98,45 @@ def simulate(
     """
     ...
 
+def import_video(
+    video: StrPath,
+    *,
+    out: StrPath = ...,
+    poses: StrPath | None = ...,
+    camera: str | None = ...,
+    units: Literal["mm", "cm", "m"] | None = ...,
+    time_offset: str | float = ...,
+    max_gap_ms: float = ...,
+    sensor_to_camera: StrPath | None = ...,
+    every: int = ...,
+    test: StrPath | None = ...,
+    test_poses: StrPath | None = ...,
+    seq: str = ...,
+    name: str | None = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Dataset:
+    """A video file with its pass's tracker pose log as a dataset (``endoloc import video``),
+    opened.
+
+    Options (``endoloc import video``'s, ``-`` as ``_``):
+
+    - ``out``: Output dataset folder.
+    - ``poses``: The pass's pose log: a tracker CSV with a header, or TUM (required).
+    - ``camera``: ``W,H,FX,FY,CX,CY``: the video carries no intrinsics (required).
+    - ``units``: Length unit of the pose log (default mm).
+    - ``time_offset``: Log time = video time + this many seconds, or ``"auto"``.
+    - ``max_gap_ms``: A frame gets a pose only when valid log samples lie within this on
+      both sides.
+    - ``sensor_to_camera``: Text file with the 4×4 hand-eye transform ``T_sc``.
+    - ``every``: Keep every N-th frame.
+    - ``test`` / ``test_poses``: The other pass's video and log, written as ``test``.
+    - ``seq``: Sequence name without ``test`` (default ``train``).
+    - ``name``: Dataset name in dataset.toml.
+    - ``force``: Replace an existing dataset at ``out``.
+    """
+    ...
+
 def train(
     *,
     method: Literal["siamese", "posenet", "offsetnet"] = ...,

@@ -144,3 +144,35 @@ def test_report_text_is_what_the_command_prints(tiny, tmp_path):
     assert r.job == "map" and Path(r.out) == tiny / "model"
     assert "threshold = 20.0" in r.settings
     assert str(r) == r.text and r.text
+
+
+def test_a_video_with_its_tracker_log_imports_as_a_dataset(tiny, tmp_path):
+    # The tiny training pass as an H.264 video, its poses as a TUM tracker log whose clock is
+    # 0.1 s ahead of the video's.
+    import shutil
+
+    import numpy as np
+
+    if shutil.which("ffmpeg") is None:
+        pytest.skip("import video needs ffmpeg (Debian: apt install ffmpeg)")
+    source = endoloc.Dataset(tiny / "data")
+    train = source["train"]
+    video = tmp_path / "pass.mp4"
+    subprocess.run(
+        ["ffmpeg", "-v", "error", "-framerate", "30", "-i", str(tiny / "data/train/images/%06d.png"),
+         "-c:v", "libx264", "-pix_fmt", "yuv420p", str(video)],
+        check=True,
+    )
+    times, poses = endoloc.read_tum(tiny / "data/train/poses.txt")
+    log = tmp_path / "tracker.txt"
+    endoloc.write_tum(log, times + 0.1, poses)
+    c = source.camera
+    imported = endoloc.import_video(
+        video, poses=log, time_offset=0.1, out=tmp_path / "data",
+        camera=f"{c.width},{c.height},{c.fx},{c.fy},{c.cx},{c.cy}",
+    )
+    seq = imported["train"]
+    assert len(seq) == len(train)
+    np.testing.assert_allclose(seq.poses, train.poses, atol=1e-6)
+    with pytest.raises(endoloc.EndolocError, match="camera"):
+        endoloc.import_video(video, poses=log, out=tmp_path / "other")

@@ -8,8 +8,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use endoloc_experiments::{BenchmarkJob, CompareJob, ExpertJob, PerturbJob, ZoneSweepJob};
 use endoloc_jobs::{
-    ClassifyJob, DemoJob, EvalJob, FeaturesJob, LocalizeJob, MapJob, PretrainJob, Progress, RunJob,
-    SimulateJob, TrainJob, ViewJob,
+    ClassifyJob, DemoJob, EvalJob, FeaturesJob, ImportJob, LocalizeJob, MapJob, PretrainJob,
+    Progress, RunJob, SimulateJob, TrainJob, ViewJob,
 };
 use endoloc_localize::FrameResult;
 use pyo3::exceptions::PyValueError;
@@ -242,6 +242,7 @@ pub fn run_job(
     }
     match name {
         "simulate" => go!(SimulateJob, |j: &SimulateJob, _| non_empty(&j.out)),
+        "import" => go!(ImportJob, |j: &ImportJob, _| non_empty(&j.out)),
         "train" => go!(TrainJob, |j: &TrainJob, _| non_empty(&j.out)),
         "map" => go!(MapJob, |j: &MapJob, _| non_empty(&j.model)),
         "localize" => {

@@ -6,8 +6,8 @@ use endoloc_experiments::{
     BenchmarkJob, CompareJob, ExperimentData, ExpertJob, PerturbJob, ZoneSweepJob,
 };
 use endoloc_jobs::{
-    ClassifyJob, DemoJob, EvalJob, FeaturesJob, LocalizeJob, MapJob, PretrainJob, SimulateJob,
-    TrainJob, ViewJob,
+    ClassifyJob, DemoJob, EvalJob, FeaturesJob, ImportJob, LocalizeJob, MapJob, PretrainJob,
+    SimulateJob, TrainJob, ViewJob,
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -16,6 +16,7 @@ use pyo3::prelude::*;
 /// `experiment.compare`).
 pub const JOBS: &[&str] = &[
     "simulate",
+    "import",
     "train",
     "map",
     "localize",
@@ -55,6 +56,7 @@ fn command_of(job: &str) -> PyResult<clap::Command> {
     let cmd = clap::Command::new("job");
     Ok(match job {
         "simulate" => SimulateJob::augment_args(cmd),
+        "import" => ImportJob::augment_args(cmd),
         "train" => TrainJob::augment_args(cmd),
         "map" => MapJob::augment_args(cmd),
         "localize" => LocalizeJob::augment_args(cmd),
