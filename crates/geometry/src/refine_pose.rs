@@ -385,28 +385,7 @@ pub fn refine_pose(
     camera: &Camera,
     cfg: &RefineConfig,
 ) -> Result<PoseEstimate, RefineError> {
-    if points_world.len() != pixels.len() {
-        return Err(RefineError::LengthMismatch {
-            points: points_world.len(),
-            pixels: pixels.len(),
-        });
-    }
-    let prior_finite = prior.translation.vector.iter().all(|v| v.is_finite())
-        && prior.rotation.coords.iter().all(|v| v.is_finite());
-    if !prior_finite {
-        return Err(RefineError::NonFinitePrior);
-    }
-    let mut normalized = Vec::with_capacity(pixels.len());
-    for (index, (p, px)) in points_world.iter().zip(pixels).enumerate() {
-        if !(p.coords.iter().all(|v| v.is_finite()) && px.coords.iter().all(|v| v.is_finite())) {
-            return Err(RefineError::NonFinite { index });
-        }
-        normalized.push(
-            camera
-                .normalized(px)
-                .unwrap_or(Vector2::new(f64::NAN, f64::NAN)),
-        );
-    }
+    let normalized = checked_observations(prior, points_world, pixels, camera)?;
     let problem = Problem {
         points: points_world,
         normalized: &normalized,
@@ -502,6 +481,40 @@ pub fn refine_pose(
         converged,
         covariance,
     })
+}
+
+/// Checks the inputs of a pose refinement — as many pixels as points, a finite prior, finite
+/// points and pixels — and undistorts the pixels to normalized coordinates (`NaN` where a
+/// pixel cannot be undistorted).
+pub(crate) fn checked_observations(
+    prior: &Pose,
+    points_world: &[Point3<f64>],
+    pixels: &[Point2<f64>],
+    camera: &Camera,
+) -> Result<Vec<Vector2<f64>>, RefineError> {
+    if points_world.len() != pixels.len() {
+        return Err(RefineError::LengthMismatch {
+            points: points_world.len(),
+            pixels: pixels.len(),
+        });
+    }
+    let prior_finite = prior.translation.vector.iter().all(|v| v.is_finite())
+        && prior.rotation.coords.iter().all(|v| v.is_finite());
+    if !prior_finite {
+        return Err(RefineError::NonFinitePrior);
+    }
+    let mut normalized = Vec::with_capacity(pixels.len());
+    for (index, (p, px)) in points_world.iter().zip(pixels).enumerate() {
+        if !(p.coords.iter().all(|v| v.is_finite()) && px.coords.iter().all(|v| v.is_finite())) {
+            return Err(RefineError::NonFinite { index });
+        }
+        normalized.push(
+            camera
+                .normalized(px)
+                .unwrap_or(Vector2::new(f64::NAN, f64::NAN)),
+        );
+    }
+    Ok(normalized)
 }
 
 /// Smallest eigenvalue of `D^{-1/2} H D^{-1/2}` (`D = diag(H)`), in `[0, 1]` for a PSD `H`.

@@ -261,35 +261,19 @@ pub fn refine_radial(
     camera: &Camera,
     cfg: &RadialConfig,
 ) -> Result<RadialFit, RefineError> {
-    if points.len() != pixels.len() || feet.len() != points.len() {
+    if feet.len() != points.len() {
         return Err(RefineError::LengthMismatch {
             points: points.len().min(feet.len()),
             pixels: pixels.len(),
         });
     }
-    let prior_finite = prior.translation.vector.iter().all(|v| v.is_finite())
-        && prior.rotation.coords.iter().all(|v| v.is_finite());
-    if !prior_finite {
-        return Err(RefineError::NonFinitePrior);
+    if let Some(index) = feet
+        .iter()
+        .position(|f| !(f.point.coords.iter().all(|v| v.is_finite()) && f.along_mm.is_finite()))
+    {
+        return Err(RefineError::NonFinite { index });
     }
-    let mut normalized = Vec::with_capacity(pixels.len());
-    for (index, ((p, f), px)) in points.iter().zip(feet).zip(pixels).enumerate() {
-        let finite = p
-            .coords
-            .iter()
-            .chain(f.point.coords.iter())
-            .all(|v| v.is_finite())
-            && f.along_mm.is_finite()
-            && px.coords.iter().all(|v| v.is_finite());
-        if !finite {
-            return Err(RefineError::NonFinite { index });
-        }
-        normalized.push(
-            camera
-                .normalized(px)
-                .unwrap_or(Vector2::new(f64::NAN, f64::NAN)),
-        );
-    }
+    let normalized = crate::refine_pose::checked_observations(prior, points, pixels, camera)?;
     let problem = Problem {
         points,
         feet,
