@@ -109,6 +109,8 @@ def import_video(
     max_gap_ms: float = ...,
     sensor_to_camera: StrPath | None = ...,
     every: int = ...,
+    max_fps: float | None = ...,
+    size: str | None = ...,
     test: StrPath | None = ...,
     test_poses: StrPath | None = ...,
     seq: str = ...,
@@ -130,6 +132,8 @@ def import_video(
       both sides.
     - ``sensor_to_camera``: Text file with the 4×4 hand-eye transform ``T_sc``.
     - ``every``: Keep every N-th frame.
+    - ``max_fps``: Keep at most this many frames per second.
+    - ``size``: Resize the frames to ``"WxH"`` (same aspect ratio; the camera is scaled).
     - ``test`` / ``test_poses``: The other pass's video and log, written as ``test``.
     - ``seq``: Sequence name without ``test`` (default ``train``).
     - ``name``: Dataset name in dataset.toml.

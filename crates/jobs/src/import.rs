@@ -152,6 +152,13 @@ pub struct ImportJob {
     /// Video: keep every N-th frame.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ImportJob::default().every))]
     pub every: usize,
+    /// Video: keep at most this many frames per second (after `every`).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub max_fps: Option<f64>,
+    /// Video: resize the frames to WxH (the same aspect ratio; `camera` is given for the
+    /// video's own size and scaled with them).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "WxH"))]
+    pub size: Option<String>,
     /// EndoSLAM: worksheet of an .xlsx pose file (default: the first sheet whose header row
     /// has an ImageFrame column, else the first sheet).
     #[cfg_attr(feature = "cli", arg(long))]
@@ -189,6 +196,8 @@ impl Default for ImportJob {
             max_gap_ms: 50.0,
             sensor_to_camera: None,
             every: 1,
+            max_fps: None,
+            size: None,
             sheet: None,
             frames: None,
             command: None,
@@ -416,6 +425,18 @@ impl ImportJob {
                 self.max_gap_ms
             );
         }
+        let size = match &self.size {
+            None => None,
+            Some(text) => {
+                let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
+                    Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?))
+                });
+                match parsed {
+                    Some((w, h)) if w > 0 && h > 0 => Some((w, h)),
+                    _ => bail!("`size` {text:?}; expected WxH in pixels, e.g. 640x480"),
+                }
+            }
+        };
         let sensor_to_camera = match &self.sensor_to_camera {
             Some(p) => Some(read_transform(p, units)?),
             None => None,
@@ -443,6 +464,8 @@ impl ImportJob {
                 max_gap_s: self.max_gap_ms / 1000.0,
                 sensor_to_camera,
                 every: self.every,
+                fps: self.max_fps,
+                size,
             };
             let v = read_video(video, &cfg)
                 .with_context(|| format!("reading video {}", video.display()))?;

@@ -249,6 +249,36 @@ fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video
         }
     }
 
+    // Subsampled and resized: at most 15 frames per second, 80×60 with the camera scaled.
+    let small = ImportJob {
+        format: ImportFormat::Video,
+        src: root.join("pass.mp4"),
+        out: root.join("small"),
+        poses: Some(root.join("tracker.csv")),
+        camera: Some(camera.clone()),
+        time_offset: OFFSET_S.to_string(),
+        sensor_to_camera: Some(root.join("hand_eye.txt")),
+        max_fps: Some(15.0),
+        size: Some("80x60".into()),
+        ..ImportJob::default()
+    }
+    .run(&Silent)
+    .unwrap();
+    let dataset = endoloc_data::Dataset::open(&small.summary.dir).unwrap();
+    let (sc, half) = (&dataset.meta.camera, c.scaled(0.5));
+    assert_eq!(
+        (sc.width, sc.height, sc.fx, sc.cx),
+        (80, 60, half.fx, half.cx)
+    );
+    let kept = dataset.sequence("train").unwrap();
+    assert_eq!(kept.load_gray(0).unwrap().dimensions(), (80, 60));
+    let (_, unposed) = resample(OFFSET_S);
+    let every_other = (0..seq.len())
+        .step_by(2)
+        .filter(|i| !unposed.contains(i))
+        .count();
+    assert_eq!(kept.len(), every_other, "30 fps kept at 15");
+
     // Damaged videos are refused, naming the file, and nothing is written: truncated, and a
     // run of corrupt bytes in the middle.
     let good = std::fs::read(root.join("pass.mp4")).unwrap();

@@ -52,6 +52,13 @@ pub struct VideoConfig {
     pub sensor_to_camera: Option<Pose>,
     /// Keep every `every`-th frame (1 = all).
     pub every: usize,
+    /// Keep at most this many frames per second of video (the first frame, then each one at
+    /// least `1 / fps` after the last kept); `None`: all (after `every`).
+    pub fps: Option<f64>,
+    /// Resize the frames to this size `(width, height)` (area filter); the camera, given for
+    /// the video's own size, is scaled with them, so the aspect ratio must stay. `None`: the
+    /// video's size.
+    pub size: Option<(u32, u32)>,
 }
 
 /// A decoded video with its poses; the frames stay on disk as long as this value lives.
@@ -178,14 +185,51 @@ pub fn frame_times(video: &Path) -> Result<Vec<f64>, DataError> {
     Ok(times)
 }
 
+/// The size `(width, height)` of the first video stream's frames, pixels.
+///
+/// # Errors
+/// [`DataError::Invalid`] naming the video when `ffprobe` is missing or fails.
+pub fn frame_size(video: &Path) -> Result<(u32, u32), DataError> {
+    let args: Vec<&std::ffi::OsStr> = [
+        "-v",
+        "error",
+        "-select_streams",
+        "v:0",
+        "-show_entries",
+        "stream=width,height",
+        "-of",
+        "csv=p=0",
+    ]
+    .iter()
+    .map(std::ffi::OsStr::new)
+    .chain([video.as_os_str()])
+    .collect();
+    let out = run(video, "ffprobe", &args)?;
+    let text = String::from_utf8_lossy(&out);
+    let mut fields = text.trim().split(',').map(|v| v.trim().parse::<u32>());
+    match (fields.next(), fields.next()) {
+        (Some(Ok(w)), Some(Ok(h))) if w > 0 && h > 0 => Ok((w, h)),
+        _ => Err(DataError::invalid(
+            video,
+            format!("no frame size in ffprobe's answer {:?}", text.trim()),
+        )),
+    }
+}
+
 /// Decodes every frame of the first video stream into `dir` as `000000.png`, `000001.png`, …
-/// (RGB, the video's size), in decoding order; returns their paths.
+/// (RGB; the video's size, or `size` with FFmpeg's area filter), in decoding order; returns
+/// their paths.
 ///
 /// # Errors
 /// [`DataError::Invalid`] naming the video when `ffmpeg` is missing or fails.
-pub fn decode_frames(video: &Path, dir: &Path) -> Result<Vec<PathBuf>, DataError> {
+pub fn decode_frames(
+    video: &Path,
+    dir: &Path,
+    size: Option<(u32, u32)>,
+) -> Result<Vec<PathBuf>, DataError> {
     let pattern = dir.join("%06d.png");
-    let args: Vec<&std::ffi::OsStr> = [
+    let scale = size.map(|(w, h)| format!("scale={w}:{h}:flags=area"));
+    let mut args: Vec<&std::ffi::OsStr> = [
         std::ffi::OsStr::new("-v"),
         "error".as_ref(),
         "-nostdin".as_ref(),
@@ -199,9 +243,15 @@ pub fn decode_frames(video: &Path, dir: &Path) -> Result<Vec<PathBuf>, DataError
         "rgb24".as_ref(),
         "-start_number".as_ref(),
         "0".as_ref(),
-        pattern.as_os_str(),
     ]
     .to_vec();
+    if let Some(filter) = &scale {
+        args.extend([
+            std::ffi::OsStr::new("-vf"),
+            std::ffi::OsStr::new(filter.as_str()),
+        ]);
+    }
+    args.push(pattern.as_os_str());
     run(video, "ffmpeg", &args)?;
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| DataError::io(dir, e))?
@@ -222,6 +272,43 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
     if cfg.every == 0 {
         return Err(DataError::invalid(video, "every = 0; expected 1 or more"));
     }
+    if let Some(fps) = cfg.fps
+        && !(fps.is_finite() && fps > 0.0)
+    {
+        return Err(DataError::invalid(
+            video,
+            format!("fps = {fps}; expected a value > 0"),
+        ));
+    }
+    let native = frame_size(video)?;
+    let c = &cfg.camera;
+    if native != (c.width, c.height) {
+        return Err(DataError::invalid(
+            video,
+            format!(
+                "frames are {}x{}; expected the camera's {}x{} (the camera is that of the video's own frames)",
+                native.0, native.1, c.width, c.height
+            ),
+        ));
+    }
+    let camera = match cfg.size {
+        None => cfg.camera,
+        Some((w, h)) => {
+            // The same aspect ratio, to a pixel.
+            let scale = f64::from(w) / f64::from(c.width);
+            let scaled = c.scaled(scale);
+            if (scaled.width, scaled.height) != (w, h) {
+                return Err(DataError::invalid(
+                    video,
+                    format!(
+                        "size {w}x{h} has another aspect ratio than the video's {}x{}; expected {}x{} for that width",
+                        c.width, c.height, scaled.width, scaled.height
+                    ),
+                ));
+            }
+            scaled
+        }
+    };
     let times = frame_times(video)?;
     let scratch = Arc::new(
         tempfile::Builder::new()
@@ -229,7 +316,7 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
             .tempdir()
             .map_err(|e| DataError::io(std::env::temp_dir(), e))?,
     );
-    let files = decode_frames(video, scratch.path())?;
+    let files = decode_frames(video, scratch.path(), cfg.size)?;
     if files.len() != times.len() {
         return Err(DataError::invalid(
             video,
@@ -237,18 +324,6 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
                 "ffprobe lists {} frames but ffmpeg decoded {}; expected the same frames (a damaged file?)",
                 times.len(),
                 files.len()
-            ),
-        ));
-    }
-    let first = image::image_dimensions(&files[0])
-        .map_err(|e| DataError::image(&files[0], e.to_string()))?;
-    let c = &cfg.camera;
-    if first != (c.width, c.height) {
-        return Err(DataError::invalid(
-            video,
-            format!(
-                "frames are {}x{}; expected the camera's {}x{}",
-                first.0, first.1, c.width, c.height
             ),
         ));
     }
@@ -290,9 +365,14 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
     let poses = poses_at(&log, &times, &resample);
     let mut frames = Vec::new();
     let mut unposed = Vec::new();
+    let mut next_kept = f64::NEG_INFINITY;
     for (i, ((file, &t), pose)) in files.iter().zip(&times).zip(&poses).enumerate() {
-        if i % cfg.every != 0 {
+        if i % cfg.every != 0 || t < next_kept {
             continue;
+        }
+        if let Some(fps) = cfg.fps {
+            // Half a millisecond of slack: container times are rounded.
+            next_kept = t + 1.0 / fps - 5e-4;
         }
         match pose {
             Some(p) => frames.push(ImportedFrame {
@@ -345,7 +425,7 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
             source: video.to_path_buf(),
             frames,
             depth_encoding: None,
-            camera: cfg.camera,
+            camera,
             notes,
         },
         offset_s,
