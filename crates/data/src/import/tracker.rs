@@ -243,10 +243,7 @@ impl Columns {
             DataError::parse(
                 path,
                 1,
-                format!(
-                    "header has no {what}; found columns {} (see `endoloc import video --help` for the names read)",
-                    header.join(",")
-                ),
+                format!("header has no {what}; found columns {}", header.join(",")),
             )
         };
         let (time, time_scale) = [
