@@ -127,28 +127,29 @@ fn run(video: &Path, program: &str, args: &[&std::ffi::OsStr]) -> Result<Vec<u8>
     Ok(out.stdout)
 }
 
+/// `ffprobe`'s answer (CSV, no keys) for the `entries` of the first video stream.
+fn probe(video: &Path, entries: &str) -> Result<String, DataError> {
+    let args: Vec<&std::ffi::OsStr> = ["-v", "error", "-select_streams", "v:0", "-show_entries"]
+        .iter()
+        .map(std::ffi::OsStr::new)
+        .chain([
+            std::ffi::OsStr::new(entries),
+            "-of".as_ref(),
+            "csv=p=0".as_ref(),
+            video.as_os_str(),
+        ])
+        .collect();
+    let out = run(video, "ffprobe", &args)?;
+    Ok(String::from_utf8_lossy(&out).into_owned())
+}
+
 /// The presentation time of every frame of the first video stream, seconds, in decoding order.
 ///
 /// # Errors
 /// [`DataError::Invalid`] naming the video when `ffprobe` is missing, fails, or lists a frame
 /// without a time.
 pub fn frame_times(video: &Path) -> Result<Vec<f64>, DataError> {
-    let args: Vec<&std::ffi::OsStr> = [
-        "-v",
-        "error",
-        "-select_streams",
-        "v:0",
-        "-show_entries",
-        "frame=best_effort_timestamp_time",
-        "-of",
-        "csv=p=0",
-    ]
-    .iter()
-    .map(std::ffi::OsStr::new)
-    .chain([video.as_os_str()])
-    .collect();
-    let out = run(video, "ffprobe", &args)?;
-    let text = String::from_utf8_lossy(&out);
+    let text = probe(video, "frame=best_effort_timestamp_time")?;
     let mut times = Vec::new();
     for (i, l) in text
         .lines()
@@ -190,22 +191,7 @@ pub fn frame_times(video: &Path) -> Result<Vec<f64>, DataError> {
 /// # Errors
 /// [`DataError::Invalid`] naming the video when `ffprobe` is missing or fails.
 pub fn frame_size(video: &Path) -> Result<(u32, u32), DataError> {
-    let args: Vec<&std::ffi::OsStr> = [
-        "-v",
-        "error",
-        "-select_streams",
-        "v:0",
-        "-show_entries",
-        "stream=width,height",
-        "-of",
-        "csv=p=0",
-    ]
-    .iter()
-    .map(std::ffi::OsStr::new)
-    .chain([video.as_os_str()])
-    .collect();
-    let out = run(video, "ffprobe", &args)?;
-    let text = String::from_utf8_lossy(&out);
+    let text = probe(video, "stream=width,height")?;
     let mut fields = text.trim().split(',').map(|v| v.trim().parse::<u32>());
     match (fields.next(), fields.next()) {
         (Some(Ok(w)), Some(Ok(h))) if w > 0 && h > 0 => Ok((w, h)),
