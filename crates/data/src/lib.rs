@@ -18,6 +18,7 @@ pub mod info;
 pub mod mesh;
 pub mod png_io;
 pub mod sections_csv;
+pub mod stream;
 pub mod trajectory;
 
 pub use anatomy::Section;

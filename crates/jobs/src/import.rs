@@ -425,18 +425,11 @@ impl ImportJob {
                 self.max_gap_ms
             );
         }
-        let size = match &self.size {
-            None => None,
-            Some(text) => {
-                let parsed = text.split_once(['x', 'X']).and_then(|(w, h)| {
-                    Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?))
-                });
-                match parsed {
-                    Some((w, h)) if w > 0 && h > 0 => Some((w, h)),
-                    _ => bail!("`size` {text:?}; expected WxH in pixels, e.g. 640x480"),
-                }
-            }
-        };
+        let size = self
+            .size
+            .as_deref()
+            .map(crate::localize::parse_size)
+            .transpose()?;
         let sensor_to_camera = match &self.sensor_to_camera {
             Some(p) => Some(read_transform(p, units)?),
             None => None,

@@ -186,6 +186,17 @@ pub fn frame_times(video: &Path) -> Result<Vec<f64>, DataError> {
     Ok(times)
 }
 
+/// The number of frames of the first video stream as its container states it (read from
+/// the header, no decoding); `None` when the container does not say (or `ffprobe` fails).
+pub fn frame_count_hint(video: &Path) -> Option<usize> {
+    probe(video, "stream=nb_frames")
+        .ok()?
+        .trim()
+        .trim_end_matches(',')
+        .parse()
+        .ok()
+}
+
 /// The size `(width, height)` of the first video stream's frames, pixels.
 ///
 /// # Errors

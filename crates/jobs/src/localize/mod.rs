@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
+use endoloc_data::stream::{FrameStream, PixelFormat};
 use endoloc_data::{Dataset, Sequence, StampedPose};
 use endoloc_features::Mask;
 use endoloc_geometry::RobustKernel;
@@ -16,12 +17,14 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 mod results;
+mod stream;
 mod summary;
 
 pub use results::{
     FRAMES_FILE, INLIERS_FILE, ResultWriter, TRAJECTORY_FILE, frame_record, frame_records,
     inliers_csv, parse_inliers_csv, read_inliers_csv,
 };
+pub use stream::{STREAM_FILE, StreamSummary};
 pub use summary::{LatencyHistogram, RunSummary};
 
 use crate::bail;
@@ -95,9 +98,49 @@ pub struct LocalizeJob {
     #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub reference_seq: Option<PathBuf>,
     /// Sequence folder to localize (images/ and, for evaluation, poses.txt), e.g.
-    /// data/small/test.
-    #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
+    /// data/small/test; or `video`.
+    #[cfg_attr(
+        feature = "cli",
+        arg(
+            long,
+            value_name = "DIR",
+            // Empty when `video` is given: a parser that takes the empty default.
+            default_value = "",
+            value_parser = |s: &str| Ok::<_, std::convert::Infallible>(PathBuf::from(s)),
+            hide_default_value = true,
+            required_unless_present = "video",
+            conflicts_with = "video"
+        )
+    )]
     pub seq: PathBuf,
+    /// Instead of `seq`: localize frames as they come, live, from a video file (decoded by
+    /// FFmpeg while it is read, each frame resized to the model's camera; the frames must come
+    /// from that camera) or, with `-`, raw frames on standard input (`size`, `pix_fmt`).
+    /// trajectory.txt then holds the video's times (raw frames: seconds since the first), and
+    /// stream.csv lists every frame of the source with its latency from arrival to pose.
+    /// Needs `live`.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "FILE|-", requires = "live"))]
+    pub video: Option<PathBuf>,
+    /// With `video`: frames arrive as a camera delivers them — a file paced at its frame
+    /// times, raw frames on standard input as they come — and a frame that arrives before the
+    /// last one was taken wins: the older one is dropped (listed in stream.csv), never queued.
+    /// Without it every frame is localized, the source waiting for the localizer.
+    #[cfg_attr(feature = "cli", arg(long, requires = "video"))]
+    pub realtime: bool,
+    /// Raw frames on standard input (`video` -): their size, WxH in pixels (resized to the
+    /// model's camera; the aspect ratio must be the same).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "WxH", requires = "video"))]
+    pub size: Option<String>,
+    /// Raw frames on standard input: `gray8` (one byte per pixel) or `rgb24` (three: R G B).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "FORMAT", default_value_t = PixelFormat::default(), requires = "video")
+    )]
+    pub pix_fmt: PixelFormat,
+    /// With `video`: the image mask of the frames — a dataset folder (its mask) or a mask PNG
+    /// of the model's camera size, non-zero = valid (default: none).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "PATH", requires = "video"))]
+    pub mask: Option<PathBuf>,
     /// Output folder.
     #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub out: PathBuf,
@@ -215,6 +258,11 @@ impl Default for LocalizeJob {
             regressor: None,
             reference_seq: None,
             seq: PathBuf::new(),
+            video: None,
+            realtime: false,
+            size: None,
+            pix_fmt: PixelFormat::default(),
+            mask: None,
             out: PathBuf::new(),
             live: false,
             track_frames: cfg.track_frames,
@@ -254,6 +302,8 @@ pub const LOCALIZE_FILE: &str = "localize.toml";
 pub struct LocalizeReport {
     /// Counts and latencies (endoloc only; `None` for baselines).
     pub summary: Option<RunSummary>,
+    /// Arrivals, drops and latency from arrival to pose (`video` only).
+    pub stream: Option<StreamSummary>,
     /// Frames of the sequence.
     pub frame_count: usize,
     /// Frames with a pose.
@@ -386,6 +436,12 @@ impl LocalizeJob {
                 &format!(" (the results in {})", self.out.display()),
             )?;
         }
+        if let Some(video) = &self.video {
+            return self.run_video(video, progress, on_frame);
+        }
+        if self.seq.as_os_str().is_empty() {
+            bail!("a sequence folder (`seq`) or a video (`video`) to localize is required");
+        }
         if self.method != LocalizeMethod::Endoloc {
             if !self.also_model.is_empty() {
                 bail!("`also_model` joins zone models for the endoloc method only");
@@ -501,11 +557,86 @@ impl LocalizeJob {
             with_pose,
             ms_per_frame: 1e3 * wall_s / n.max(1) as f64,
             summary: Some(summary),
+            stream: None,
             wall_s,
             note: None,
             along,
             out: self.out.clone(),
         })
+    }
+
+    /// Localizes the frames of `video` (a file, or `-`: raw frames on standard input) as they
+    /// come (see [`LocalizeJob::video`]).
+    fn run_video(
+        &self,
+        video: &Path,
+        progress: &dyn Progress,
+        on_frame: &mut dyn FnMut(FrameResult),
+    ) -> Result<LocalizeReport> {
+        if self.method != LocalizeMethod::Endoloc || !self.live {
+            bail!("`video` is localized live by endoloc: it needs `live` and the method endoloc");
+        }
+        if !self.seq.as_os_str().is_empty() {
+            bail!("give a sequence folder (`seq`) or a video (`video`), not both");
+        }
+        let camera = self.localizer()?.camera().clone();
+        let size = (camera.width, camera.height);
+        let stream = if video.as_os_str() == "-" {
+            let Some(native) = self.size.as_deref().map(parse_size).transpose()? else {
+                bail!("raw frames on standard input need their size (`size` WxH)");
+            };
+            FrameStream::raw(
+                "standard input",
+                Box::new(std::io::stdin()),
+                native,
+                self.pix_fmt,
+                size,
+            )?
+        } else {
+            if self.size.is_some() {
+                bail!(
+                    "`size` is the size of raw frames on standard input; a video file states its own"
+                );
+            }
+            FrameStream::open_video(video, size)?
+        };
+        self.run_frames(stream, progress, on_frame)
+    }
+
+    /// Localizes the frames of `stream` live, as they come, into `out` (this job's settings;
+    /// `seq` and `video` unused): what `video` does, for frames from any source — a camera's
+    /// driver, a test's reader. The stream's size must be the model's camera's. With
+    /// `realtime`, a raw stream's frames are taken as they arrive (newest wins) and a video
+    /// file's are paced at their times; without it every frame is localized.
+    ///
+    /// # Errors
+    /// A model or map that cannot be loaded, a stream of another size than the model's
+    /// camera, a source that fails (its own error), or a failed write.
+    pub fn run_frames(
+        &self,
+        stream: FrameStream,
+        progress: &dyn Progress,
+        on_frame: &mut dyn FnMut(FrameResult),
+    ) -> Result<LocalizeReport> {
+        let localizer = self.localizer()?;
+        let camera = localizer.camera().clone();
+        if stream.size() != (camera.width, camera.height) {
+            bail!(
+                "{}: frames of {}x{}; the model's camera is {}x{}",
+                stream.name().display(),
+                stream.size().0,
+                stream.size().1,
+                camera.width,
+                camera.height
+            );
+        }
+        let mask = match &self.mask {
+            Some(p) => read_mask(p, &camera)?,
+            None => None,
+        };
+        let black = mask.as_ref().map(|m| m.to_gray());
+        let localizer = localizer.with_mask(mask);
+        self.run_stream(&localizer, stream, black, progress, on_frame)
     }
 
     /// Writes this job as `localize.toml` into `dir`, so that the run can be repeated (and
@@ -595,6 +726,7 @@ impl LocalizeJob {
         staged.publish()?;
         Ok(LocalizeReport {
             summary: None,
+            stream: None,
             frame_count: seq.len(),
             with_pose: trajectory.len(),
             ms_per_frame: est.ms_per_frame,
@@ -622,6 +754,20 @@ pub fn load_classifier(model: &Path, also: &[PathBuf], device: Device) -> Result
     }
     let others = also.iter().map(|d| load(d)).collect::<Result<Vec<_>>>()?;
     Ok(first.join(others)?)
+}
+
+/// An image size `WxH`, pixels, both above 0.
+///
+/// # Errors
+/// [`JobError::Invalid`] quoting `text`.
+pub(crate) fn parse_size(text: &str) -> Result<(u32, u32)> {
+    let parsed = text
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)));
+    match parsed {
+        Some((w, h)) if w > 0 && h > 0 => Ok((w, h)),
+        _ => bail!("`size` {text:?}; expected WxH in pixels, e.g. 640x480"),
+    }
 }
 
 /// The camera of the dataset a sequence folder belongs to (its parent's `dataset.toml`).
@@ -721,11 +867,19 @@ impl fmt::Display for LocalizeReport {
             return write!(f, "wrote     {}/trajectory.txt", self.out.display());
         };
         writeln!(f, "{summary}; {:.1} s wall", self.wall_s)?;
+        if let Some(stream) = &self.stream {
+            writeln!(f, "{stream}")?;
+        }
         write!(
             f,
-            "wrote     {}/trajectory.txt, frames.csv, inliers.csv{}",
+            "wrote     {}/trajectory.txt, frames.csv, inliers.csv{}{}",
             self.out.display(),
-            if self.along { ", along.csv" } else { "" }
+            if self.along { ", along.csv" } else { "" },
+            if self.stream.is_some() {
+                ", stream.csv"
+            } else {
+                ""
+            }
         )
     }
 }

@@ -28,18 +28,18 @@ pub const FRAMES_FILE: &str = "frames.csv";
 pub const ALONG_FILE: &str = "along.csv";
 
 /// One output file written line by line: buffered, flushed and synced by
-/// [`ResultWriter::finish`]. Errors name `shown`, the path the file will have once
-/// published, not the staging path it is written under.
+/// [`LineFile::finish`]. Errors name `shown`, the path the file will have once published,
+/// not the staging path it may be written under.
 #[derive(Debug)]
-struct LineFile {
+pub(super) struct LineFile {
     file: BufWriter<File>,
     shown: PathBuf,
 }
 
 impl LineFile {
-    fn create(staged: &StagedFiles, dest: &Path, name: &str, header: &str) -> Result<Self> {
-        let shown = dest.join(name);
-        let file = File::create(staged.path(name)).map_err(|e| JobError::io(&shown, e))?;
+    /// Creates `path` (shown in errors as `shown`) and writes `header` into it.
+    pub(super) fn create(path: &Path, shown: PathBuf, header: &str) -> Result<Self> {
+        let file = File::create(path).map_err(|e| JobError::io(&shown, e))?;
         let mut f = LineFile {
             file: BufWriter::with_capacity(64 * 1024, file),
             shown,
@@ -48,13 +48,22 @@ impl LineFile {
         Ok(f)
     }
 
-    fn write(&mut self, text: &str) -> Result<()> {
+    fn staged(staged: &StagedFiles, dest: &Path, name: &str, header: &str) -> Result<Self> {
+        Self::create(&staged.path(name), dest.join(name), header)
+    }
+
+    pub(super) fn write(&mut self, text: &str) -> Result<()> {
         self.file
             .write_all(text.as_bytes())
             .map_err(|e| JobError::io(&self.shown, e))
     }
 
-    fn finish(self) -> Result<()> {
+    /// Hands what is buffered to the operating system: a process killed after this keeps it.
+    pub(super) fn flush(&mut self) -> Result<()> {
+        self.file.flush().map_err(|e| JobError::io(&self.shown, e))
+    }
+
+    pub(super) fn finish(self) -> Result<()> {
         let LineFile { file, shown } = self;
         let file = file
             .into_inner()
@@ -78,9 +87,13 @@ pub struct ResultWriter {
     frames: LineFile,
     inliers: LineFile,
     along: Option<(LineFile, Midline)>,
-    /// Timestamps of the sequence's frames, seconds.
-    timestamps: Vec<f64>,
+    /// Timestamps of the sequence's frames, seconds; `None` for a stream, whose frames come
+    /// with their own ([`ResultWriter::push_at`]).
+    timestamps: Option<Vec<f64>>,
+    /// The next frame index ([`ResultWriter::push`]) or the lowest one allowed
+    /// ([`ResultWriter::push_at`]).
     next: usize,
+    written: usize,
     line: String,
 }
 
@@ -98,45 +111,98 @@ impl ResultWriter {
     ) -> Result<Self> {
         let along = match midline {
             Some(m) => Some((
-                LineFile::create(staged, dest, ALONG_FILE, "frame,along_mm\n")?,
+                LineFile::staged(staged, dest, ALONG_FILE, "frame,along_mm\n")?,
                 m,
             )),
             None => None,
         };
         Ok(ResultWriter {
-            trajectory: LineFile::create(staged, dest, TRAJECTORY_FILE, endoloc_data::TUM_HEADER)?,
-            frames: LineFile::create(staged, dest, FRAMES_FILE, &format!("{FRAMES_CSV_HEADER}\n"))?,
-            inliers: LineFile::create(staged, dest, INLIERS_FILE, "frame,x_px,y_px\n")?,
+            trajectory: LineFile::staged(staged, dest, TRAJECTORY_FILE, endoloc_data::TUM_HEADER)?,
+            frames: LineFile::staged(staged, dest, FRAMES_FILE, &format!("{FRAMES_CSV_HEADER}\n"))?,
+            inliers: LineFile::staged(staged, dest, INLIERS_FILE, "frame,x_px,y_px\n")?,
             along,
-            timestamps: seq.poses.iter().map(|p| p.timestamp_s).collect(),
+            timestamps: Some(seq.poses.iter().map(|p| p.timestamp_s).collect()),
             next: 0,
+            written: 0,
+            line: String::with_capacity(256),
+        })
+    }
+
+    /// Starts the files of a stream's run straight in the folder `dest` (which exists), each
+    /// frame's rows handed to the operating system as soon as they are written
+    /// ([`ResultWriter::push_at`]): a run that is killed keeps every finished frame.
+    ///
+    /// # Errors
+    /// A file that cannot be created.
+    pub fn streaming(dest: &Path) -> Result<Self> {
+        let file =
+            |name: &str, header: &str| LineFile::create(&dest.join(name), dest.join(name), header);
+        Ok(ResultWriter {
+            trajectory: file(TRAJECTORY_FILE, endoloc_data::TUM_HEADER)?,
+            frames: file(FRAMES_FILE, &format!("{FRAMES_CSV_HEADER}\n"))?,
+            inliers: file(INLIERS_FILE, "frame,x_px,y_px\n")?,
+            along: None,
+            timestamps: None,
+            next: 0,
+            written: 0,
             line: String::with_capacity(256),
         })
     }
 
     /// Frames written so far.
     pub fn len(&self) -> usize {
-        self.next
+        self.written
     }
 
     /// Whether no frame has been written yet.
     pub fn is_empty(&self) -> bool {
-        self.next == 0
+        self.written == 0
     }
 
-    /// Writes the rows of the next frame.
+    /// Writes the rows of the next frame of the sequence.
     ///
     /// # Errors
-    /// More frames than the sequence has, a value that cannot be written (not finite), or a
-    /// failed write.
+    /// More frames than the sequence has (or a stream's writer), a value that cannot be
+    /// written (not finite), or a failed write.
     pub fn push(&mut self, r: &FrameResult) -> Result<()> {
         let i = self.next;
-        let Some(&timestamp_s) = self.timestamps.get(i) else {
+        let Some(timestamps) = &self.timestamps else {
+            return Err(JobError::Invalid(
+                "a stream's frames are written with their index and time".into(),
+            ));
+        };
+        let Some(&timestamp_s) = timestamps.get(i) else {
             return Err(JobError::Invalid(format!(
                 "frame {i}: the sequence has only {} frames",
-                self.timestamps.len()
+                timestamps.len()
             )));
         };
+        self.write_rows(i, timestamp_s, r)
+    }
+
+    /// Writes the rows of a stream's frame `frame` (its index in the source, above the last
+    /// one written: dropped frames leave gaps) at `timestamp_s` (the source's clock, seconds),
+    /// and flushes them.
+    ///
+    /// # Errors
+    /// A sequence's writer, a frame index not above the last, a value that cannot be written
+    /// (not finite), or a failed write.
+    pub fn push_at(&mut self, frame: usize, timestamp_s: f64, r: &FrameResult) -> Result<()> {
+        if self.timestamps.is_some() || frame < self.next {
+            return Err(JobError::Invalid(format!(
+                "{}: frame {frame} written out of order (next {})",
+                self.frames.shown.display(),
+                self.next
+            )));
+        }
+        self.write_rows(frame, timestamp_s, r)?;
+        for f in [&mut self.trajectory, &mut self.frames, &mut self.inliers] {
+            f.flush()?;
+        }
+        Ok(())
+    }
+
+    fn write_rows(&mut self, i: usize, timestamp_s: f64, r: &FrameResult) -> Result<()> {
         if let Some(pose) = r.t_wc {
             self.line.clear();
             endoloc_data::format_tum_line(&StampedPose { timestamp_s, pose }, &mut self.line)
@@ -159,22 +225,25 @@ impl ResultWriter {
         self.line.clear();
         append_inliers(i, &r.inlier_px, &mut self.line);
         self.inliers.write(&self.line)?;
-        self.next += 1;
+        self.next = i + 1;
+        self.written += 1;
         Ok(())
     }
 
-    /// Flushes and syncs the files; they are complete in the staging folder, ready to be
-    /// published.
+    /// Flushes and syncs the files; they are complete (in the staging folder, ready to be
+    /// published, for a sequence).
     ///
     /// # Errors
     /// A failed write (disk full), or fewer frames written than the sequence has.
     pub fn finish(self) -> Result<()> {
-        if self.next != self.timestamps.len() {
+        if let Some(timestamps) = &self.timestamps
+            && self.written != timestamps.len()
+        {
             return Err(JobError::Invalid(format!(
                 "{}: {} of {} frames written",
                 self.frames.shown.display(),
-                self.next,
-                self.timestamps.len()
+                self.written,
+                timestamps.len()
             )));
         }
         self.trajectory.finish()?;
