@@ -51,7 +51,7 @@ pub use error::{Context, JobError, Result};
 pub use eval::{EvalJob, EvalReport};
 pub use features::{FeaturesJob, FeaturesReport};
 pub use import::{ImportFormat, ImportJob, ImportReport};
-pub use localize::{LocalizeJob, LocalizeMethod, LocalizeReport};
+pub use localize::{LocalizeJob, LocalizeMethod, LocalizeReport, STREAM_FILE, StreamSummary};
 pub use map::{MapJob, MapReport};
 pub use pipeline::{DemoJob, DemoReport, RunJob, Timings};
 pub use pretrain::{PretrainJob, PretrainReport};

@@ -10,8 +10,11 @@ use endoloc_data::import::tracker::{
     OffsetSearch, PoseLog, PoseSample, ResampleConfig, TrackerLogConfig, estimate_time_offset,
     frame_motion, parse_pose_log, poses_at,
 };
+use endoloc_data::stream::{FrameStream, PixelFormat};
 use endoloc_geometry::Pose;
-use endoloc_jobs::{ImportFormat, ImportJob, Silent, SimulateJob};
+use endoloc_jobs::{
+    ImportFormat, ImportJob, LocalizeJob, MapJob, STREAM_FILE, Silent, SimulateJob, TrainJob,
+};
 use nalgebra::{Translation3, UnitQuaternion};
 
 const OFFSET_S: f64 = 0.35;
@@ -249,6 +252,30 @@ fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video
         }
     }
 
+    // Streamed (decoded while read, no file per frame): the frames and times the import
+    // wrote, bit for bit.
+    let exact = endoloc_data::Dataset::open(&root.join("pass.mp4-exact"))
+        .unwrap()
+        .sequence("train")
+        .unwrap();
+    let streamed: Vec<_> = FrameStream::open_video(&root.join("pass.mp4"), (c.width, c.height))
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    assert_eq!(streamed.len(), seq.len());
+    for (k, p) in exact.poses.iter().enumerate() {
+        let f = streamed
+            .iter()
+            .find(|f| (f.time_s - p.timestamp_s).abs() < 1e-4)
+            .expect("the imported frame streamed");
+        assert!(f.damage.is_none());
+        assert!(
+            f.image == exact.load_gray(k).unwrap(),
+            "frame at {} s",
+            f.time_s
+        );
+    }
+
     // Subsampled and resized: at most 15 frames per second, 80×60 with the camera scaled.
     let small = ImportJob {
         format: ImportFormat::Video,
@@ -315,4 +342,112 @@ fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video
         );
         assert!(!out.exists(), "{name}: nothing is written");
     }
+}
+
+/// A pass streamed live as raw frames (as `localize --video -` reads them from standard input)
+/// is localized as from its PNG files — the same zones, statuses and poses — and each frame's
+/// rows are on disk before the next frame is taken, so a killed run keeps them.
+#[test]
+fn a_stream_of_raw_frames_is_localized_as_its_png_files_are() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path();
+    let data = root.join("data");
+    SimulateJob {
+        train_frames: Some(200),
+        test_frames: Some(60),
+        width: Some(160),
+        height: Some(120),
+        depth: Some(false),
+        out: data.clone(),
+        ..SimulateJob::default()
+    }
+    .run(&Silent)
+    .unwrap();
+    let model = root.join("model");
+    TrainJob {
+        data: data.clone(),
+        zones: endoloc_net::ZoneSpec::Uniform(20),
+        epochs: Some(0),
+        pretrained: Some("builtin-joint".into()),
+        out: model.clone(),
+        ..TrainJob::default()
+    }
+    .run(&Silent)
+    .unwrap();
+    MapJob {
+        model: model.clone(),
+        data: data.clone(),
+        threshold: 20.0,
+        ..MapJob::default()
+    }
+    .run(&Silent)
+    .unwrap();
+    let job = |out: &str| LocalizeJob {
+        model: Some(model.clone()),
+        out: root.join(out),
+        live: true,
+        ..LocalizeJob::default()
+    };
+    let from_files = root.join("files");
+    LocalizeJob {
+        seq: data.join("test"),
+        ..job("files")
+    }
+    .run(&Silent)
+    .unwrap();
+
+    // The test pass as RGB bytes, back to back.
+    let seq = endoloc_data::Dataset::open(&data)
+        .unwrap()
+        .sequence("test")
+        .unwrap();
+    let mut bytes = Vec::new();
+    for i in 0..seq.len() {
+        let path = seq.dir.join(format!("images/{i:06}.png"));
+        bytes.extend(image::open(&path).unwrap().into_rgb8().into_raw());
+    }
+    let stream = FrameStream::raw(
+        "test pass",
+        Box::new(std::io::Cursor::new(bytes)),
+        (160, 120),
+        PixelFormat::Rgb24,
+        (160, 120),
+    )
+    .unwrap();
+    let streamed = root.join("streamed");
+    let mut finished = 0;
+    let report = job("streamed")
+        .run_frames(stream, &Silent, &mut |_| {
+            finished += 1;
+            let rows = std::fs::read_to_string(streamed.join("frames.csv")).unwrap();
+            assert_eq!(
+                rows.lines().count(),
+                1 + finished,
+                "rows on disk as frames finish"
+            );
+        })
+        .unwrap();
+    let stream = report.stream.expect("a stream's summary");
+    assert_eq!((stream.frames, stream.dropped), (seq.len(), 0));
+
+    // frames.csv the same but for the time spent; the same poses (the stream's clock aside).
+    let rows = |dir: &std::path::Path| -> Vec<String> {
+        std::fs::read_to_string(dir.join("frames.csv"))
+            .unwrap()
+            .lines()
+            .map(|l| l.rsplit_once(',').unwrap().0.to_string())
+            .collect()
+    };
+    assert_eq!(rows(&streamed), rows(&from_files));
+    let poses = |dir: &std::path::Path| -> Vec<_> {
+        endoloc_data::read_tum(&dir.join("trajectory.txt"))
+            .unwrap()
+            .into_iter()
+            .map(|p| p.pose)
+            .collect()
+    };
+    assert_eq!(poses(&streamed), poses(&from_files));
+    let log = std::fs::read_to_string(streamed.join(STREAM_FILE)).unwrap();
+    assert_eq!(log.lines().count(), 1 + seq.len());
+    assert!(log.lines().skip(1).all(|l| l.contains(",localized,")));
 }

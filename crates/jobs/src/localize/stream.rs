@@ -372,3 +372,85 @@ impl LocalizeJob {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use endoloc_data::stream::PixelFormat;
+
+    /// `n` raw 4×3 grey frames, frame k filled with k.
+    fn frames(n: u8) -> FrameStream {
+        let bytes: Vec<u8> = (0..n).flat_map(|k| [k; 12]).collect();
+        let reader = Box::new(std::io::Cursor::new(bytes));
+        FrameStream::raw("frames", reader, (4, 3), PixelFormat::Gray8, (4, 3)).unwrap()
+    }
+
+    /// Takes every frame from a mailbox fed with `n` frames, slower than they arrive; the
+    /// frames taken and the frames dropped.
+    fn drain(n: u8, newest_wins: bool) -> (Vec<usize>, Vec<usize>) {
+        let mailbox = Arc::new(Mailbox::default());
+        let feeder = {
+            let mailbox = mailbox.clone();
+            std::thread::spawn(move || feed(frames(n), &mailbox, false, newest_wins))
+        };
+        let (mut taken, mut dropped) = (Vec::new(), Vec::new());
+        while let Some(next) = mailbox.take() {
+            let (a, d) = next.unwrap();
+            assert_eq!(usize::from(a.frame.image.as_raw()[0]), a.frame.index);
+            dropped.extend(d.into_iter().map(|(i, _)| i));
+            taken.push(a.frame.index);
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        feeder.join().unwrap();
+        (taken, dropped)
+    }
+
+    #[test]
+    fn the_newest_frame_wins_and_every_dropped_one_is_counted() {
+        let (taken, dropped) = drain(50, true);
+        assert!(!dropped.is_empty(), "a slow consumer drops frames");
+        assert_eq!(taken.last(), Some(&49), "the last frame is never dropped");
+        let mut all: Vec<usize> = taken.iter().chain(&dropped).copied().collect();
+        all.sort_unstable();
+        assert_eq!(
+            all,
+            (0..50).collect::<Vec<_>>(),
+            "each frame taken or dropped, once"
+        );
+        assert!(taken.windows(2).all(|w| w[0] < w[1]));
+        // Without newest-wins the source waits: every frame, in order.
+        assert_eq!(drain(20, false), ((0..20).collect(), Vec::new()));
+    }
+
+    #[test]
+    fn a_source_error_ends_the_stream_after_its_frames() {
+        // Two whole frames, then 5 bytes of a third.
+        let mut bytes = vec![7u8; 24];
+        bytes.extend([1u8; 5]);
+        let stream = FrameStream::raw(
+            "pipe",
+            Box::new(std::io::Cursor::new(bytes)),
+            (4, 3),
+            PixelFormat::Gray8,
+            (4, 3),
+        )
+        .unwrap();
+        let mailbox = Arc::new(Mailbox::default());
+        let feeder = {
+            let mailbox = mailbox.clone();
+            std::thread::spawn(move || feed(stream, &mailbox, false, false))
+        };
+        let mut got = Vec::new();
+        let error = loop {
+            match mailbox.take() {
+                Some(Ok((a, _))) => got.push(a.frame.index),
+                Some(Err(e)) => break e.to_string(),
+                None => panic!("the stream ended without its error"),
+            }
+        };
+        feeder.join().unwrap();
+        assert_eq!(got, [0, 1]);
+        assert!(error.contains("inside frame 2"), "{error}");
+        assert!(mailbox.take().is_none(), "after the error, the end");
+    }
+}
