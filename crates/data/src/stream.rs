@@ -169,7 +169,7 @@ impl FrameStream {
         }
         filter.push_str("showinfo");
         let mut child = Command::new("ffmpeg")
-            .args(["-hide_banner", "-nostdin", "-loglevel", "level+info", "-i"])
+            .args(["-hide_banner", "-nostdin", "-nostats", "-loglevel", "level+info", "-i"])
             .arg(video)
             .args(["-map", "0:v:0", "-fps_mode", "passthrough", "-vf"])
             .arg(&filter)

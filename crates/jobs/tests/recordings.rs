@@ -341,6 +341,22 @@ fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video
             "{message}"
         );
         assert!(!out.exists(), "{name}: nothing is written");
+        // Streamed: a truncated file is refused up front; the corrupt packets mark the frames
+        // decoded from them damaged (localized as `rejected`), and the stream goes on.
+        let stream = FrameStream::open_video(&root.join(name), (c.width, c.height));
+        if name == "truncated.mp4" {
+            let e = stream.unwrap_err().to_string();
+            assert!(e.contains(name), "{e}");
+        } else {
+            let frames: Vec<_> = stream.unwrap().map(Result::unwrap).collect();
+            let damaged = frames.iter().filter(|f| f.damage.is_some()).count();
+            assert!(damaged >= 1, "the corrupt packets are reported");
+            assert!(
+                frames.len() >= seq.len() - 10 && damaged < 10,
+                "{} frames, {damaged} damaged",
+                frames.len()
+            );
+        }
     }
 }
 
