@@ -6,6 +6,8 @@ The same library as the ``endoloc`` command line, in process:
   ``float64`` arrays (``T_wc``, camera-to-world, millimetres), the camera;
 - ``Model.load(path)``: the zone classifier (``classify``, ``describe``);
 - ``Localizer(model, live=True)``: ``localize(image)`` frame by frame, as ``endoloc localize``;
+- ``VideoFrames(path, size)``: a video file's frames as FFmpeg decodes them, to feed a
+  ``Localizer`` (``localize(video=..., live=True)`` does it as a job);
 - the jobs — ``simulate``, ``import_video``, ``train``, ``map``, ``localize``, ``eval``, ``classify``, ``view``,
   ``features``, ``pretrain``, ``demo``, ``run`` and ``experiment.benchmark`` / ``compare`` / ``zones`` /
   ``expert`` / ``perturb`` — with the command line's options as keyword arguments
@@ -34,6 +36,7 @@ from ._endoloc import (
     Model,
     Report,
     Sequence,
+    VideoFrames,
     __version__,
     read_tum,
     write_tum,
@@ -52,6 +55,7 @@ __all__ = [
     "Report",
     "Sequence",
     "TqdmProgress",
+    "VideoFrames",
     "__version__",
     "classify",
     "demo",

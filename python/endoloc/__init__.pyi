@@ -14,6 +14,7 @@ from ._endoloc import (
     Model as Model,
     Report as Report,
     Sequence as Sequence,
+    VideoFrames as VideoFrames,
     __version__ as __version__,
     read_tum as read_tum,
     write_tum as write_tum,
@@ -261,6 +262,11 @@ def localize(
     regressor: StrPath | None = ...,
     reference_seq: StrPath | None = ...,
     seq: StrPath = ...,
+    video: StrPath | None = ...,
+    realtime: bool = ...,
+    size: str | None = ...,
+    pix_fmt: Literal["gray8", "rgb24"] = ...,
+    mask: StrPath | None = ...,
     out: StrPath = ...,
     live: bool = ...,
     track_frames: int = ...,
@@ -299,6 +305,14 @@ def localize(
     - ``reference_seq``: Training sequence folder holding the reference images
       (`offsetnet`).
     - ``seq``: Sequence folder to localize (inside a dataset folder).
+    - ``video``: Instead of ``seq``: a video file localized live as it is decoded (each
+      frame resized to the model's camera), or ``-`` for raw frames on standard input
+      (``size``, ``pix_fmt``); needs ``live``; adds ``stream.csv`` (every frame's latency).
+    - ``realtime``: With ``video``: frames arrive as a camera delivers them (a file paced at
+      its frame times); the newest frame wins, older ones are dropped and counted.
+    - ``size``: Raw frames on standard input: their size, ``"WxH"``.
+    - ``pix_fmt``: Raw frames on standard input: ``gray8`` or ``rgb24``.
+    - ``mask``: With ``video``: the frames' image mask, a dataset folder or a mask PNG.
     - ``out``: Output folder.
     - ``live``: Frames one at a time, in order, as a scope delivers them.
     - ``track_frames``: Live: frames a refined pose stays usable as the next frames'

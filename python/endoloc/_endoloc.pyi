@@ -226,6 +226,26 @@ class Localizer:
     def settings(self) -> str:
         """The settings as ``localize.toml`` records them."""
 
+class VideoFrames:
+    """The frames of a video file (whatever FFmpeg decodes; ``ffmpeg`` and ``ffprobe`` on the
+    PATH), decoded while they are read, grey, as ``localize --live --video`` reads them:
+    iterate for ``(index, time_s, image)`` — the frame's index in the video, its presentation
+    time (seconds, the video's clock) and an ``(H, W)`` ``uint8`` array. ``size=(width,
+    height)`` resizes them (same aspect ratio; e.g. a ``Localizer``'s camera size)."""
+
+    def __init__(self, path: StrPath, size: tuple[int, int] | None = None) -> None: ...
+    def __iter__(self) -> VideoFrames: ...
+    def __next__(self) -> tuple[int, float, npt.NDArray[np.uint8]]: ...
+    @property
+    def size(self) -> tuple[int, int]:
+        """The size of the frames handed out, ``(width, height)`` pixels."""
+    @property
+    def native_size(self) -> tuple[int, int]:
+        """The video's own frame size, ``(width, height)`` pixels."""
+    @property
+    def damaged(self) -> str | None:
+        """FFmpeg's message when the last frame was decoded from damaged data."""
+
 class Report:
     """What a job did."""
 

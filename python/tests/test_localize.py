@@ -175,3 +175,31 @@ def test_a_masked_localizer_keeps_to_the_mask_and_says_which_file_does_not_fit(t
     write_gray_png(small, np.full((h // 2, w // 2), 255))
     with pytest.raises(endoloc.EndolocError, match="small.png"):
         endoloc.Localizer(tiny / "model", mask=small)
+
+
+def test_a_video_feeds_the_localizer_as_localize_video_does(tiny, tmp_path):
+    # The tiny test pass as an H.264 video: its frames from `VideoFrames` through a live
+    # `Localizer` give the rows `localize(video=..., live=True)` writes.
+    import shutil
+    import subprocess
+
+    if shutil.which("ffmpeg") is None:
+        pytest.skip("a video is decoded with ffmpeg (Debian: apt install ffmpeg)")
+    video = tmp_path / "pass.mp4"
+    subprocess.run(
+        ["ffmpeg", "-v", "error", "-framerate", "30", "-i", str(tiny / "data/test/images/%06d.png"),
+         "-c:v", "libx264", "-pix_fmt", "yuv420p", str(video)],
+        check=True,
+    )
+    loc = endoloc.Localizer(tiny / "model", live=True)
+    frames = endoloc.VideoFrames(video, size=(160, 120))
+    assert frames.native_size == (160, 120)
+    results = [(i, t, loc.localize(image)) for i, t, image in frames]
+    assert [i for i, _, _ in results] == list(range(30))
+    assert results[1][1] == pytest.approx(1 / 30)
+    report = endoloc.localize(model=tiny / "model", video=video, live=True, out=tmp_path / "run")
+    streamed = frames_csv(tmp_path / "run/frames.csv")
+    assert [{k: r[k] for k in ("frame", "zone", "status", "reason", "inliers")} for r in streamed] == [
+        row(i, r) for i, _, r in results
+    ]
+    assert "stream.csv" in report.text

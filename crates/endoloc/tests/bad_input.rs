@@ -313,6 +313,23 @@ fn video_import(dir: &Path, log: &str) -> Vec<String> {
     ])
 }
 
+/// `localize --live --video VIDEO` with the fixture's model into `dir/run` (`extra`: more
+/// options); standard input is empty.
+fn video_localize(fx: &Fixture, video: &str, extra: &[&str], dir: &Path) -> Vec<String> {
+    let mut a = args(&[
+        "localize",
+        "--model",
+        &s(&fx.model),
+        "--live",
+        "--video",
+        video,
+        "--out",
+        &s(&dir.join("run")),
+    ]);
+    a.extend(extra.iter().map(|x| x.to_string()));
+    a
+}
+
 fn write(path: &Path, text: &str) -> PathBuf {
     std::fs::write(path, text).unwrap();
     path.to_path_buf()
@@ -966,6 +983,24 @@ fn catalogue() -> Vec<Case> {
             "tracker log without orientation columns (import video)",
             &["tracker.csv", "orientation columns"],
             |_, d| video_import(d, "time,x,y,z\n0,0,0,0\n"),
+        ),
+        case(
+            "a video file that is not a video (localize --video)",
+            &["pass.mp4", "cannot decode the video"],
+            |fx, d| {
+                let video = write(&d.join("pass.mp4"), "not a video at all");
+                video_localize(fx, &s(&video), &[], d)
+            },
+        ),
+        case(
+            "raw frames on standard input without their size (localize --video -)",
+            &["standard input", "size", "WxH"],
+            |fx, d| video_localize(fx, "-", &[], d),
+        ),
+        case(
+            "no frame on standard input (localize --video -)",
+            &["standard input", "no frame", "160x120 gray8"],
+            |fx, d| video_localize(fx, "-", &["--size", "160x120"], d),
         ),
         // ---- run configs and experiments ----
         case(

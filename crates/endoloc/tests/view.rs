@@ -247,9 +247,10 @@ fn chromium() -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
-/// Runs headless chromium with `args`, killed after 90 s.
+/// Runs headless chromium with `args`, killed after 90 s. Its output is read while it runs: a
+/// dumped page larger than a pipe's buffer would otherwise hold it up.
 fn headless(browser: &Path, profile: &Path, args: &[String]) -> Output {
-    let mut child = Command::new(browser)
+    let child = Command::new(browser)
         .args([
             "--headless",
             "--disable-gpu",
@@ -265,15 +266,25 @@ fn headless(browser: &Path, profile: &Path, args: &[String]) -> Output {
         .stderr(Stdio::piped())
         .spawn()
         .expect("start chromium");
-    let start = Instant::now();
-    while child.try_wait().expect("wait for chromium").is_none() {
-        if start.elapsed() > Duration::from_secs(90) {
-            let _ = child.kill();
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    child.wait_with_output().expect("chromium output")
+    let pid = child.id().to_string();
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let watchdog = {
+        let done = done.clone();
+        std::thread::spawn(move || {
+            let start = Instant::now();
+            while !done.load(std::sync::atomic::Ordering::SeqCst) {
+                if start.elapsed() > Duration::from_secs(90) {
+                    let _ = Command::new("kill").args(["-KILL", &pid]).status();
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(100));
+            }
+        })
+    };
+    let out = child.wait_with_output().expect("chromium output");
+    done.store(true, std::sync::atomic::Ordering::SeqCst);
+    let _ = watchdog.join();
+    out
 }
 
 /// The value of attribute `name` on the dumped page's `<body>`.
@@ -381,4 +392,263 @@ fn the_page_draws_in_a_headless_browser() {
     assert!(reproj > 0, "no map point reprojected onto frame 0");
     assert_eq!(body_attr(&dom0, "data-keypoints").as_deref(), Some("3"));
     assert_eq!(body_attr(&dom5, "data-keypoints").as_deref(), Some("0"));
+}
+
+/// Reads one HTTP response from `addr` for `GET path`: the status line and everything after.
+fn http_get(addr: &str, path: &str) -> String {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).unwrap();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut text = String::new();
+    s.read_to_string(&mut text).unwrap();
+    text
+}
+
+/// The live view (`localize --live --video … --serve`) in headless Chromium while a 10 s video
+/// streams in real time: the page draws the scope moving and its distance along the colon
+/// growing without script errors; a viewer connecting mid-stream gets the frames so far; each
+/// frame's event leaves the server within 100 ms of its pose; any other path is refused;
+/// Ctrl-C ends the server cleanly, and mid-stream ends the run with its files complete.
+#[test]
+fn the_live_view_follows_a_streamed_video() {
+    let (Some(browser), true) = (
+        chromium(),
+        Command::new("ffmpeg")
+            .arg("-version")
+            .output()
+            .is_ok_and(|o| o.status.success()),
+    ) else {
+        println!("skipped: needs chromium and ffmpeg on PATH (apt-get install chromium ffmpeg)");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    let path = |p: &str| root.join(p).to_str().unwrap().to_string();
+    for args in [
+        &[
+            "simulate",
+            "--preset",
+            "small",
+            "--train-frames",
+            "300",
+            "--test-frames",
+            "300",
+            "--width",
+            "160",
+            "--height",
+            "120",
+            "--no-depth",
+            "--out",
+            &path("data"),
+        ][..],
+        &[
+            "train",
+            "--data",
+            &path("data"),
+            "--zones",
+            "50",
+            "--pretrained",
+            "builtin-joint",
+            "--epochs",
+            "0",
+            "--out",
+            &path("model"),
+        ],
+        &[
+            "map",
+            "--model",
+            &path("model"),
+            "--data",
+            &path("data"),
+            "--threshold",
+            "20",
+        ],
+    ] {
+        let out = endoloc(args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let video = path("pass.mp4");
+    let status = Command::new("ffmpeg")
+        .args([
+            "-v",
+            "error",
+            "-framerate",
+            "30",
+            "-i",
+            &path("data/test/images/%06d.png"),
+        ])
+        .args(["-c:v", "libx264", "-pix_fmt", "yuv420p", &video])
+        .status()
+        .unwrap();
+    assert!(status.success());
+
+    // The run, serving on a free loopback port (printed on stderr).
+    let start = |out: &str| {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_endoloc"))
+            .args([
+                "localize",
+                "--model",
+                &path("model"),
+                "--live",
+                "--realtime",
+            ])
+            .args([
+                "--video",
+                &video,
+                "--out",
+                &path(out),
+                "--serve",
+                "127.0.0.1:0",
+            ])
+            .args(["--train-data", &path("data")])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let stderr = child.stderr.take().unwrap();
+        let mut lines = std::io::BufRead::lines(std::io::BufReader::new(stderr));
+        let addr = lines
+            .by_ref()
+            .map_while(Result::ok)
+            .find_map(|l| {
+                l.split("http://")
+                    .nth(1)
+                    .map(|a| a.trim_end_matches('/').to_string())
+            })
+            .expect("the address on stderr");
+        // Keep draining stderr so that the run never blocks on it.
+        std::thread::spawn(move || lines.for_each(drop));
+        (child, addr)
+    };
+    let interrupt = |child: &std::process::Child| {
+        let ok = Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(ok.success());
+    };
+    let (mut child, addr) = start("run");
+    let url = format!("http://{addr}/");
+    assert!(http_get(&addr, "/").starts_with("HTTP/1.1 200"));
+    for other in ["/etc/passwd", "/events/../x", "/view.html", "/favicon.ico"] {
+        let r = http_get(&addr, other);
+        assert!(r.starts_with("HTTP/1.1 404"), "{other}: {r:.80}");
+    }
+    // An event stream read by hand: the delay from each frame's pose to its arrival here.
+    let events = {
+        let addr = addr.clone();
+        std::thread::spawn(move || {
+            use std::io::{BufRead, Write};
+            let mut s = std::net::TcpStream::connect(&addr).unwrap();
+            write!(s, "GET /events HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+            let mut delays = Vec::new();
+            for line in std::io::BufReader::new(s).lines().map_while(Result::ok) {
+                if line.starts_with("event: end") {
+                    break;
+                }
+                let Some(json) = line.strip_prefix("data: {") else {
+                    continue;
+                };
+                let now = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .unwrap()
+                    .as_secs_f64()
+                    * 1e3;
+                let sent: f64 = json
+                    .rsplit_once("\"sent\":")
+                    .and_then(|(_, v)| v.trim_end_matches('}').parse().ok())
+                    .unwrap();
+                delays.push(now - sent);
+            }
+            delays
+        })
+    };
+    let viewer = |name: &str| {
+        let (browser, url, profile) = (browser.clone(), url.clone(), root.join(name));
+        std::thread::spawn(move || {
+            let out = headless(&browser, &profile, &["--dump-dom".into(), url]);
+            let dom = String::from_utf8_lossy(&out.stdout).into_owned();
+            let attr = |k: &str| body_attr(&dom, k).unwrap_or_default();
+            [
+                "data-errors",
+                "data-frames",
+                "data-scope-moves",
+                "data-along-first",
+                "data-along",
+                "data-snapshot",
+                "data-live",
+            ]
+            .map(|k| attr(k))
+        })
+    };
+    let first = viewer("first");
+    std::thread::sleep(Duration::from_secs(4));
+    let second = viewer("second");
+    let (first, second) = (first.join().unwrap(), second.join().unwrap());
+    let delays = events.join().unwrap();
+    interrupt(&child);
+    let exit = child.wait().unwrap();
+    assert!(exit.success(), "Ctrl-C after the stream: {exit:?}");
+
+    let rows = std::fs::read_to_string(root.join("run/frames.csv")).unwrap();
+    let localized = rows.lines().count() - 1;
+    // Frames dropped in real time depend on the machine; enough must remain to watch.
+    assert!(
+        localized >= 150,
+        "{localized} of 300 frames localized in real time"
+    );
+    println!("first viewer {first:?}\nsecond viewer {second:?}");
+    for (name, v) in [("first", &first), ("second", &second)] {
+        let [errors, frames, moves, along_first, along, snapshot, live] = v;
+        assert_eq!(errors, "0", "{name} viewer: script errors");
+        assert!(live.starts_with("ended"), "{name} viewer: {live}");
+        assert_eq!(frames, &localized.to_string(), "{name} viewer: every frame");
+        let (a0, a1): (f64, f64) = (along_first.parse().unwrap(), along.parse().unwrap());
+        assert!(
+            a1 > a0 + 20.0,
+            "{name} viewer: along the colon {a0} → {a1} mm"
+        );
+        let moves: usize = moves.parse().unwrap();
+        let snapshot: usize = snapshot.parse().unwrap();
+        if name == "first" {
+            assert!(moves >= 100, "the scope drawn at {moves} places");
+        } else {
+            assert!(
+                snapshot >= 60,
+                "a late viewer gets the frames so far: {snapshot}"
+            );
+        }
+    }
+    let mut sorted = delays.clone();
+    sorted.sort_by(f64::total_cmp);
+    assert!(sorted.len() >= 200, "{} events read", sorted.len());
+    assert!(
+        sorted[sorted.len() / 2] <= 100.0,
+        "pose to viewer: median {:.1} ms",
+        sorted[sorted.len() / 2]
+    );
+
+    // Ctrl-C mid-stream: the run ends at once, every finished frame in its files.
+    let (mut child, _) = start("stopped");
+    std::thread::sleep(Duration::from_secs(3));
+    interrupt(&child);
+    let exit = child.wait().unwrap();
+    assert!(exit.success(), "Ctrl-C mid-stream: {exit:?}");
+    let rows = std::fs::read_to_string(root.join("stopped/frames.csv")).unwrap();
+    let log = std::fs::read_to_string(root.join("stopped/stream.csv")).unwrap();
+    let localized = rows.lines().count() - 1;
+    assert!(
+        (10..250).contains(&localized),
+        "{localized} frames before Ctrl-C"
+    );
+    assert_eq!(log.matches(",localized,").count(), localized);
+    assert!(root.join("stopped/localize.toml").is_file());
 }

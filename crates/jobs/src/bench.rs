@@ -10,7 +10,10 @@
 //! ratio measured in one run. With `against`, the current localizer replays a second sequence
 //! instead (the same pass through the unchanged colon, say), frame by frame alternating with
 //! the first, each with its own live state: the slow-down of a changed colon, again a ratio
-//! from one run. Nothing is written.
+//! from one run. With `video`, a video file goes through `localize --live --video` as it would
+//! for a user (decoded by FFmpeg while it is read, paced at its frame times with `realtime`),
+//! after a pass that only decodes it, to time decoding and resizing apart. Nothing is written
+//! (the run's files go to a scratch folder).
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -20,8 +23,13 @@ use endoloc_features::SurfConfig;
 use endoloc_localize::{FrameResult, Localizer};
 use serde::{Deserialize, Serialize};
 
+use std::time::Instant;
+
+use endoloc_data::stream::FrameStream;
+
+use crate::bail;
 use crate::error::{Context, Result};
-use crate::localize::{LocalizeJob, RunSummary, dataset_mask};
+use crate::localize::{LatencyHistogram, LocalizeJob, RunSummary, StreamSummary, dataset_mask};
 use crate::progress::{Progress, bar};
 
 /// Replays a sequence as a live stream through the localizer and reports per-stage latency.
@@ -32,9 +40,29 @@ pub struct LiveBenchJob {
     /// Model folder with its map (the train and map jobs).
     #[cfg_attr(feature = "cli", arg(long))]
     pub model: PathBuf,
-    /// Sequence folder to replay in frame order, e.g. data/paper/test.
-    #[cfg_attr(feature = "cli", arg(long))]
+    /// Sequence folder to replay in frame order, e.g. data/paper/test; or `video`.
+    #[cfg_attr(
+        feature = "cli",
+        arg(
+            long,
+            default_value = "",
+            value_parser = |s: &str| Ok::<_, std::convert::Infallible>(PathBuf::from(s)),
+            hide_default_value = true,
+            required_unless_present = "video",
+            conflicts_with = "video"
+        )
+    )]
     pub seq: PathBuf,
+    /// Instead of `seq`: a video file of the model's camera, localized live as `localize
+    /// --live --video` does. Reported: decoding per frame at the video's size, decoding with
+    /// the resize to the model's camera (each from a pass that only decodes), localization,
+    /// and the latency from a frame's arrival to its pose, with the frames dropped.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "FILE"))]
+    pub video: Option<PathBuf>,
+    /// With `video`: paced at the video's frame times, the newest frame winning (as
+    /// `localize --realtime`); without it every frame is localized as fast as it can be.
+    #[cfg_attr(feature = "cli", arg(long, requires = "video"))]
+    pub realtime: bool,
     /// Replay only the first N frames (default: all).
     #[cfg_attr(feature = "cli", arg(long, value_name = "N"))]
     pub frames: Option<usize>,
@@ -59,6 +87,8 @@ impl Default for LiveBenchJob {
         LiveBenchJob {
             model: PathBuf::new(),
             seq: PathBuf::new(),
+            video: None,
+            realtime: false,
             frames: None,
             compare: true,
             against: None,
@@ -82,6 +112,37 @@ pub struct LiveBenchReport {
     pub differing_frames: Option<usize>,
     /// The `against` sequence and the current localizer on it.
     pub against: Option<(PathBuf, RunSummary)>,
+    /// With `video`: decoding and the stream's arrivals and latency.
+    pub video: Option<VideoBench>,
+}
+
+/// What [`LiveBenchJob`] measured on a video file.
+#[derive(Debug, Clone)]
+pub struct VideoBench {
+    /// The video's frame size, pixels.
+    pub native: (u32, u32),
+    /// The model's camera size the frames are resized to, pixels.
+    pub size: (u32, u32),
+    /// Time per frame to decode it at the video's size (a pass that only decodes), ms.
+    pub decode_ms: LatencyHistogram,
+    /// Time per frame to decode it and resize it to the camera (a pass that only decodes),
+    /// ms.
+    pub decode_resize_ms: LatencyHistogram,
+    /// The localization run: arrivals, drops, latency from arrival to pose.
+    pub stream: StreamSummary,
+}
+
+/// The time between frames handed out by `stream`, read as fast as it goes, ms.
+fn read_times(mut stream: FrameStream) -> Result<LatencyHistogram> {
+    let mut h = LatencyHistogram::new();
+    let mut last = Instant::now();
+    while let Some(frame) = stream.next_frame() {
+        frame?;
+        let now = Instant::now();
+        h.add(1e3 * now.duration_since(last).as_secs_f64());
+        last = now;
+    }
+    Ok(h)
 }
 
 /// Runs `a` and `b` on frame `i`, `a` first on even frames and `b` first on odd ones, so
@@ -111,6 +172,9 @@ impl LiveBenchJob {
     /// A model or map that cannot be loaded, a sequence that cannot be read, or a localizer
     /// error on a frame.
     pub fn run(&self, progress: &dyn Progress) -> Result<LiveBenchReport> {
+        if let Some(video) = &self.video {
+            return self.run_video(video, progress);
+        }
         if let Some(other) = &self.against {
             return self.run_against(other, progress);
         }
@@ -165,6 +229,47 @@ impl LiveBenchJob {
             reference: self.compare.then_some(summaries.1),
             differing_frames: self.compare.then_some(differing),
             against: None,
+            video: None,
+        })
+    }
+
+    /// `video` decoded alone at its size and at the camera's, then localized live.
+    fn run_video(&self, video: &Path, progress: &dyn Progress) -> Result<LiveBenchReport> {
+        if self.against.is_some() || self.frames.is_some() {
+            bail!("`video` is timed whole, without `against` or `frames`");
+        }
+        let job = self.localize_job();
+        let camera = job.localizer()?.camera().clone();
+        let size = (camera.width, camera.height);
+        let native = endoloc_data::import::video::frame_size(video)?;
+        progress.note(&format!("decoding {} alone", video.display()));
+        let decode_ms = read_times(FrameStream::open_video(video, native)?)?;
+        let decode_resize_ms = read_times(FrameStream::open_video(video, size)?)?;
+        let scratch = tempfile::tempdir().map_err(|e| crate::JobError::io(video, e))?;
+        let report = LocalizeJob {
+            seq: PathBuf::new(),
+            video: Some(video.to_path_buf()),
+            realtime: self.realtime,
+            out: scratch.path().join("run"),
+            ..job
+        }
+        .run(progress)?;
+        let (Some(current), Some(stream)) = (report.summary, report.stream) else {
+            bail!("the live run of {} gave no summary", video.display());
+        };
+        Ok(LiveBenchReport {
+            seq: video.to_path_buf(),
+            current,
+            reference: None,
+            differing_frames: None,
+            against: None,
+            video: Some(VideoBench {
+                native,
+                size,
+                decode_ms,
+                decode_resize_ms,
+                stream,
+            }),
         })
     }
 
@@ -211,12 +316,65 @@ impl LiveBenchJob {
             reference: None,
             differing_frames: None,
             against: Some((other.to_path_buf(), summaries.1)),
+            video: None,
         })
+    }
+}
+
+impl fmt::Display for VideoBench {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = &self.stream;
+        writeln!(
+            f,
+            "{}: {} frames of {}x{} at {:.1} fps, resized to {}x{}{}",
+            s.source.display(),
+            s.frames,
+            self.native.0,
+            self.native.1,
+            s.source_fps,
+            self.size.0,
+            self.size.1,
+            if s.realtime {
+                ", paced in real time (newest frame wins)"
+            } else {
+                ", every frame"
+            }
+        )?;
+        let q = |h: &LatencyHistogram| format!("{:.2} ({:.1})", h.quantile(0.5), h.quantile(0.95));
+        writeln!(
+            f,
+            "ms: median (p95)   decode {}   decode + resize {}   waiting {}   arrival to pose {}",
+            q(&self.decode_ms),
+            q(&self.decode_resize_ms),
+            q(&s.queue_ms),
+            q(&s.latency_ms)
+        )?;
+        write!(
+            f,
+            "dropped {} of {} frames ({:.1} %)",
+            s.dropped,
+            s.frames,
+            100.0 * s.dropped_fraction()
+        )
     }
 }
 
 impl fmt::Display for LiveBenchReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(v) = &self.video {
+            writeln!(f, "{v}")?;
+            writeln!(
+                f,
+                "{:<22} {:>13} {:>13} {:>13} {:>13} {:>15} {:>9}",
+                "ms: median (p95)", "zone", "SURF", "matching", "refinement", "localize", "refined"
+            )?;
+            write!(f, "{:<22}", "current")?;
+            let s = &self.current;
+            for h in s.stage_ms.iter().chain([&s.total_ms]) {
+                write!(f, " {:>6.2} ({:>5.1})", h.quantile(0.5), h.quantile(0.95))?;
+            }
+            return write!(f, " {:>8.1}%", 100.0 * s.refined());
+        }
         writeln!(
             f,
             "{}: {} frames replayed live, decoding outside the clock",

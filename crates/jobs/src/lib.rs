@@ -43,7 +43,7 @@ pub mod simulate;
 pub mod train;
 pub mod view;
 
-pub use bench::{LiveBenchJob, LiveBenchReport};
+pub use bench::{LiveBenchJob, LiveBenchReport, VideoBench};
 pub use classify::{ClassifyJob, ClassifyReport, ZoneAccuracy};
 pub use dataset::{DatasetAction, DatasetJob, DatasetReport};
 pub use endoloc_features::MaskDetectConfig;
@@ -58,7 +58,7 @@ pub use pretrain::{PretrainJob, PretrainReport};
 pub use progress::{Bar, Progress, Silent};
 pub use simulate::{SimulateJob, SimulateReport};
 pub use train::{TrainJob, TrainMethod, TrainReport};
-pub use view::{ViewJob, ViewReport};
+pub use view::{LiveView, ViewJob, ViewReport};
 
 /// The value parser of a change severity (`none`, `mild`, `moderate`, `severe`).
 #[cfg(feature = "cli")]

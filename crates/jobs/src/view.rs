@@ -133,6 +133,13 @@ impl fmt::Display for ViewReport {
 /// The data embedded in the page as one JSON object (lengths in mm, world frame, `T_wc`).
 #[derive(Debug, Serialize)]
 struct PageData {
+    /// A live page: no frames yet, each comes as an event of the server's stream
+    /// ([`LiveFrame`]).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    live: bool,
+    /// What `along` is measured from (`the anus`, or the training pass's start).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    along_from: Option<String>,
     title: String,
     frames: usize,
     zones: usize,
@@ -312,6 +319,99 @@ fn estimates_per_frame(
     Ok(out)
 }
 
+/// What every page shows of the model: the training pass and the map points by zone.
+struct Scene {
+    /// Training pass positions, flat `x y z …`.
+    train: Vec<f64>,
+    /// Map points, flat `x y z …`, sorted by zone (at most `max_points`).
+    points: Vec<f64>,
+    /// `[first, end)` indices into the points of each zone.
+    zone_points: Vec<[usize; 2]>,
+    zones: usize,
+    /// Points in the map before subsampling.
+    map_points_total: usize,
+}
+
+impl Scene {
+    fn empty(zones: usize) -> Self {
+        Scene {
+            train: Vec::new(),
+            points: Vec::new(),
+            zone_points: vec![[0, 0]; zones],
+            zones,
+            map_points_total: 0,
+        }
+    }
+
+    /// The training pass (`train_poses.txt`), zones and map of `model`, its points subsampled
+    /// evenly to at most `max_points`; what is missing is noted in `missing`.
+    fn of_model(
+        model: &Path,
+        max_points: usize,
+        zones_hint: usize,
+        missing: &mut Vec<String>,
+    ) -> Result<Self> {
+        let mut scene = Scene::empty(0);
+        scene.zones = zones_hint;
+        scene.zone_points.clear();
+        let tp = model.join(endoloc_net::model::POSES_FILE);
+        if tp.is_file() {
+            for p in read_tum(&tp)? {
+                let t = p.pose.translation.vector;
+                scene
+                    .train
+                    .extend([round(t.x, 2), round(t.y, 2), round(t.z, 2)]);
+            }
+        } else {
+            missing.push(format!("training pass: no {}", tp.display()));
+        }
+        let zp = model.join(endoloc_net::zones::ZONES_FILE);
+        if zp.is_file() {
+            let table = endoloc_net::ZoneTable::load(&zp)?;
+            scene.zones = scene.zones.max(table.len());
+        }
+        if model.join("map.bin").is_file() {
+            let map = load_map(model)?;
+            scene.map_points_total = map.zones.iter().map(|z| z.points.len()).sum::<usize>();
+            let keep = if scene.map_points_total > max_points {
+                max_points as f64 / scene.map_points_total as f64
+            } else {
+                1.0
+            };
+            let zones_in_map = map.zones.iter().map(|z| z.zone + 1).max().unwrap_or(0);
+            scene.zones = scene.zones.max(zones_in_map);
+            scene.zone_points = vec![[0usize, 0usize]; scene.zones];
+            let mut zm: Vec<_> = map.zones.iter().collect();
+            zm.sort_by_key(|z| z.zone);
+            let mut acc = 0.0;
+            for z in zm {
+                let first = scene.points.len() / 3;
+                for p in &z.points {
+                    acc += keep;
+                    if acc >= 1.0 {
+                        acc -= 1.0;
+                        let w = p.p_world;
+                        scene
+                            .points
+                            .extend([round(w.x, 2), round(w.y, 2), round(w.z, 2)]);
+                    }
+                }
+                scene.zone_points[z.zone] = [first, scene.points.len() / 3];
+            }
+        } else {
+            missing.push(format!(
+                "map points: no {}",
+                model.join("map.bin").display()
+            ));
+        }
+        if scene.zone_points.len() < scene.zones {
+            let end = scene.points.len() / 3;
+            scene.zone_points.resize(scene.zones, [end, end]);
+        }
+        Ok(scene)
+    }
+}
+
 impl ViewJob {
     /// The page this job writes.
     pub fn out_path(&self) -> PathBuf {
@@ -426,69 +526,18 @@ impl ViewJob {
         let camera = camera_of(&seq)?;
 
         // The training pass and the map.
-        let mut train = Vec::new();
-        let mut zones_count = rows
+        let zones_in_rows = rows
             .iter()
             .filter_map(|r| r.zone)
             .max()
             .map_or(0, |z| z + 1);
-        let mut points = Vec::new();
-        let mut zone_points = Vec::new();
-        let mut map_points_total = 0;
-        if let Some(model) = &model {
-            let tp = model.join(endoloc_net::model::POSES_FILE);
-            if tp.is_file() {
-                for p in read_tum(&tp)? {
-                    let t = p.pose.translation.vector;
-                    train.extend([round(t.x, 2), round(t.y, 2), round(t.z, 2)]);
-                }
-            } else {
-                missing.push(format!("training pass: no {}", tp.display()));
+        let scene = match &model {
+            Some(model) => Scene::of_model(model, self.max_points, zones_in_rows, &mut missing)?,
+            None => {
+                missing.push("training pass and map: the run names no model (`model`)".into());
+                Scene::empty(zones_in_rows)
             }
-            let zp = model.join(endoloc_net::zones::ZONES_FILE);
-            if zp.is_file() {
-                let table = endoloc_net::ZoneTable::load(&zp)?;
-                zones_count = zones_count.max(table.len());
-            }
-            if model.join("map.bin").is_file() {
-                let map = load_map(model)?;
-                map_points_total = map.zones.iter().map(|z| z.points.len()).sum::<usize>();
-                let keep = if map_points_total > self.max_points {
-                    self.max_points as f64 / map_points_total as f64
-                } else {
-                    1.0
-                };
-                let zones_in_map = map.zones.iter().map(|z| z.zone + 1).max().unwrap_or(0);
-                zones_count = zones_count.max(zones_in_map);
-                zone_points = vec![[0usize, 0usize]; zones_count];
-                let mut zm: Vec<_> = map.zones.iter().collect();
-                zm.sort_by_key(|z| z.zone);
-                let mut acc = 0.0;
-                for z in zm {
-                    let first = points.len() / 3;
-                    for p in &z.points {
-                        acc += keep;
-                        if acc >= 1.0 {
-                            acc -= 1.0;
-                            let w = p.p_world;
-                            points.extend([round(w.x, 2), round(w.y, 2), round(w.z, 2)]);
-                        }
-                    }
-                    zone_points[z.zone] = [first, points.len() / 3];
-                }
-            } else {
-                missing.push(format!(
-                    "map points: no {}",
-                    model.join("map.bin").display()
-                ));
-            }
-        } else {
-            missing.push("training pass and map: the run names no model (`model`)".into());
-        }
-        if zone_points.len() < zones_count {
-            let end = points.len() / 3;
-            zone_points.resize(zones_count, [end, end]);
-        }
+        };
 
         // Thumbnails.
         let tw = self.thumb_width;
@@ -531,8 +580,10 @@ impl ViewJob {
                 .ok()
                 .and_then(|p| p.file_name().map(|s| s.to_string_lossy().into_owned()))
                 .unwrap_or_else(|| run.display().to_string()),
+            live: false,
+            along_from: None,
             frames: n,
-            zones: zones_count,
+            zones: scene.zones,
             camera: CameraData {
                 width: camera.width,
                 height: camera.height,
@@ -546,8 +597,8 @@ impl ViewJob {
                 width: tw,
                 height: th,
             },
-            train,
-            zone_points,
+            train: scene.train,
+            zone_points: scene.zone_points,
             gt: gt
                 .as_ref()
                 .map(|g| g.iter().map(|p| pose7(&p.pose)).collect()),
@@ -577,7 +628,7 @@ impl ViewJob {
             keypoints,
             images: thumbs,
             image_mime: "image/jpeg",
-            points,
+            points: scene.points,
         };
         let html = render(&data)?;
         if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
@@ -589,10 +640,233 @@ impl ViewJob {
             out,
             frames: n,
             with_pose,
-            points: (data.points.len() / 3, map_points_total),
+            points: (data.points.len() / 3, scene.map_points_total),
             ground_truth: data.gt.is_some(),
             missing,
         })
+    }
+}
+
+/// The live page of a stream being localized (`localize --live --video … --serve`): the same
+/// page and drawing code as [`ViewJob`]'s, started without frames; each frame reaches it as a
+/// [`LiveView::frame_event`] on the server's event stream. Where the scope is along the colon
+/// is measured on the mid-line of the dataset the model was trained on (`data`: its
+/// `midline.txt`, from the anus, and its training sequence's `sections.csv` for the
+/// anatomical section of the nearest training frame); without it, along the training pass
+/// from its first frame.
+#[derive(Debug)]
+pub struct LiveView {
+    page: String,
+    midline: Option<endoloc_eval::Midline>,
+    /// Training positions and their sections, for the section of the nearest one.
+    sections: Option<(Vec<nalgebra::Point3<f64>>, Vec<endoloc_data::Section>)>,
+    thumb: (u32, u32),
+    /// What could not be shown (e.g. no map), one line each.
+    pub missing: Vec<String>,
+}
+
+/// One frame as the live page receives it (JSON; lengths in mm, `est` as `x y z qx qy qz qw`).
+#[derive(Debug, Serialize)]
+struct LiveFrame<'a> {
+    frame: usize,
+    t: f64,
+    est: Option<[f64; 7]>,
+    zone: Option<usize>,
+    zone_score: Option<f64>,
+    status: u8,
+    reason: &'a str,
+    inliers: Option<usize>,
+    rms: Option<f64>,
+    time_ms: f64,
+    keypoints: Vec<f64>,
+    along: Option<f64>,
+    section: Option<&'static str>,
+    std_mm: Option<f64>,
+    latency_ms: f64,
+    image: Option<String>,
+    /// When the event left the server, ms since the Unix epoch: the page measures its delay.
+    sent: f64,
+}
+
+impl LiveView {
+    /// The page for `model` (its training pass and map, at most `max_points` of them) and
+    /// frames of `camera`; `data`: the dataset the model was trained on, for distances from
+    /// the anus and sections.
+    ///
+    /// # Errors
+    /// A model, map or dataset that cannot be read.
+    pub fn new(
+        model: &Path,
+        camera: &Camera,
+        data: Option<&Path>,
+        title: &str,
+        max_points: usize,
+    ) -> Result<Self> {
+        let mut missing = Vec::new();
+        let scene = Scene::of_model(model, max_points, 0, &mut missing)?;
+        let (midline, sections, along_from) = match data {
+            Some(dir) => {
+                let ds = Dataset::open(dir)?;
+                let midline = match ds.midline_path() {
+                    Some(p) => Some(endoloc_eval::Midline::from_file(&p)?),
+                    None => {
+                        missing.push(format!(
+                            "distance from the anus: {} has no mid-line",
+                            dir.display()
+                        ));
+                        None
+                    }
+                };
+                let train = ds.sequence("train")?;
+                let sections = train.sections.clone().map(|s| {
+                    let points = train
+                        .poses
+                        .iter()
+                        .map(|p| nalgebra::Point3::from(p.pose.translation.vector))
+                        .collect();
+                    (points, s)
+                });
+                if sections.is_none() {
+                    missing.push(format!(
+                        "sections: {} has no train/sections.csv",
+                        dir.display()
+                    ));
+                }
+                (midline, sections, "the anus")
+            }
+            None => (None, None, "the start of the training pass"),
+        };
+        let midline = match midline {
+            Some(m) => Some(m),
+            None => {
+                let points: Vec<nalgebra::Point3<f64>> = scene
+                    .train
+                    .chunks_exact(3)
+                    .map(|c| nalgebra::Point3::new(c[0], c[1], c[2]))
+                    .collect();
+                endoloc_eval::Midline::new(&points, "the training pass").ok()
+            }
+        };
+        let tw = 320.min(camera.width);
+        let th = ((f64::from(tw) * f64::from(camera.height) / f64::from(camera.width)).round()
+            as u32)
+            .max(1);
+        let data = PageData {
+            live: true,
+            along_from: Some(along_from.to_string()),
+            title: title.to_string(),
+            frames: 0,
+            zones: scene.zones,
+            camera: CameraData {
+                width: camera.width,
+                height: camera.height,
+                fx: camera.fx,
+                fy: camera.fy,
+                cx: camera.cx,
+                cy: camera.cy,
+                distortion: distortion_of(camera),
+            },
+            thumb: ThumbData {
+                width: tw,
+                height: th,
+            },
+            train: scene.train,
+            points: scene.points,
+            zone_points: scene.zone_points,
+            gt: None,
+            est: Vec::new(),
+            zone: Vec::new(),
+            zone_score: Vec::new(),
+            status: Vec::new(),
+            reason: Vec::new(),
+            inliers: Vec::new(),
+            rms: Vec::new(),
+            time_ms: Vec::new(),
+            pos_err: None,
+            rot_err: None,
+            keypoints: Some(Vec::new()),
+            images: Vec::new(),
+            image_mime: "image/jpeg",
+        };
+        Ok(LiveView {
+            page: render(&data)?,
+            midline,
+            sections,
+            thumb: (tw, th),
+            missing,
+        })
+    }
+
+    /// The page (HTML, self-contained but for its event stream at `events`, relative).
+    pub fn page(&self) -> &str {
+        &self.page
+    }
+
+    /// The event of one localized frame (JSON, one line): its pose, status, zone, where it is
+    /// along the colon and in which section, and a JPEG thumbnail of the frame when `thumb`.
+    ///
+    /// # Errors
+    /// A thumbnail that cannot be encoded, or a value JSON cannot hold.
+    pub fn frame_event(
+        &self,
+        f: &crate::localize::StreamedFrame<'_>,
+        thumb: bool,
+    ) -> Result<String> {
+        let r = f.result;
+        let est = r.t_wc.as_ref().map(pose7);
+        let centre = r.t_wc.map(|p| nalgebra::Point3::from(p.translation.vector));
+        let along = match (&self.midline, centre) {
+            (Some(m), Some(c)) => Some(round(m.arc_length_at(&c), 1)),
+            _ => None,
+        };
+        let section = match (&self.sections, centre) {
+            (Some((points, sections)), Some(c)) => points
+                .iter()
+                .map(|p| (p - c).norm_squared())
+                .enumerate()
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .and_then(|(i, _)| sections.get(i))
+                .map(|s| s.as_str()),
+            _ => None,
+        };
+        let image = if thumb {
+            let bytes = encode_thumb(f.image, self.thumb.0, self.thumb.1, 70)?;
+            Some(endoloc_eval::html::base64(&bytes))
+        } else {
+            None
+        };
+        let finite = |x: f64| x.is_finite().then_some(x);
+        let record = crate::localize::frame_record(f.index, r);
+        let event = LiveFrame {
+            frame: f.index,
+            t: round(f.time_s, 4),
+            est,
+            zone: record.zone,
+            zone_score: record.zone_score.map(|s| round(s, 4)),
+            status: match r.status {
+                Status::Refined => 0,
+                Status::InitOnly => 1,
+                Status::Rejected => 2,
+            },
+            reason: &record.reason,
+            inliers: record.inliers,
+            rms: record.reprojection_rms_px.map(|x| round(x, 3)),
+            time_ms: round(record.time_ms, 2),
+            keypoints: r
+                .inlier_px
+                .iter()
+                .flat_map(|p| [round(f64::from(p[0]), 1), round(f64::from(p[1]), 1)])
+                .collect(),
+            along,
+            section,
+            std_mm: finite(r.position_std_mm).map(|x| round(x, 3)),
+            latency_ms: round(f.latency_ms, 2),
+            image,
+            sent: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0.0, |d| round(d.as_secs_f64() * 1e3, 1)),
+        };
+        Ok(serde_json::to_string(&event)?)
     }
 }
 

@@ -12,6 +12,7 @@ mod dataset;
 mod jobs;
 mod localizer;
 mod options;
+mod video;
 
 use pyo3::prelude::*;
 
@@ -27,6 +28,7 @@ fn _endoloc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<localizer::PyLocalizer>()?;
     m.add_class::<localizer::PyFrameResult>()?;
     m.add_class::<jobs::PyReport>()?;
+    m.add_class::<video::PyVideoFrames>()?;
     m.add_function(wrap_pyfunction!(dataset::read_tum, m)?)?;
     m.add_function(wrap_pyfunction!(dataset::write_tum, m)?)?;
     m.add_function(wrap_pyfunction!(jobs::run_job, m)?)?;
@@ -46,4 +48,5 @@ const _: () = {
     assert!(std::mem::align_of::<dataset::PySequence>() <= 16);
     assert!(std::mem::align_of::<dataset::PyCamera>() <= 16);
     assert!(std::mem::align_of::<jobs::PyReport>() <= 16);
+    assert!(std::mem::align_of::<video::PyVideoFrames>() <= 16);
 };

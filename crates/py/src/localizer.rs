@@ -300,14 +300,19 @@ pub struct PyLocalizer {
 }
 
 /// The localize job's options that do not apply to a localizer fed frame by frame (what to
-/// run, where the frames come from and where results go); `live` and the model are the
-/// localizer's own arguments.
+/// run, where the frames come from and where results go); `live`, `mask` and the model are
+/// the localizer's own arguments.
 const NOT_LOCALIZER_OPTIONS: &[&str] = &[
     "method",
     "model",
     "regressor",
     "reference_seq",
     "seq",
+    "video",
+    "realtime",
+    "size",
+    "pix_fmt",
+    "mask",
     "out",
     "live",
     "strict",

@@ -25,7 +25,10 @@ enum What {
 /// measured in one run on one machine. The number of frames whose result differs is
 /// printed. With --against, a second sequence (the same pass through the unchanged colon
 /// beside a changed one, say) goes through the current localizer instead, frame by frame
-/// alternating with the first: the ratio of their latencies, from one run. Nothing is
+/// alternating with the first: the ratio of their latencies, from one run. With --video, a
+/// video file goes through `localize --live --video` (--realtime: paced at its frame times,
+/// the newest frame winning): decoding, resizing, localization and the latency from a
+/// frame's arrival to its pose, median and p95, with the frames dropped. Nothing is
 /// written.
 ///
 /// Examples:
@@ -35,6 +38,8 @@ enum What {
 ///   endoloc bench live --model models/bj --seq data/paper/test --frames 500 --no-compare
 ///
 ///   endoloc bench live --model models/bj --seq data/moderate/test --against data/paper/test
+///
+///   endoloc bench live --model models/bj --video pass-1080p.mp4 --realtime
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 struct LiveArgs {

@@ -36,6 +36,10 @@ pub fn run_map(args: MapArgs, ui: &dyn Progress) -> Result<()> {
 ///   endoloc localize --model models/small --seq data/small/test --out runs/small
 ///
 ///   endoloc localize --model models/small --seq data/small/test --out runs/live --live
+///
+/// A recording as it plays, watched in the browser at http://127.0.0.1:8080/:
+///
+///   endoloc localize --model models/small --live --video pass.mp4 --realtime --out runs/video --serve
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct LocalizeArgs {
@@ -43,13 +47,108 @@ pub struct LocalizeArgs {
     job: LocalizeJob,
     #[command(flatten)]
     confirm: ConfirmArgs,
+    /// With --video: serve a live view at ADDR while the stream is localized — the colon
+    /// (training pass, map points by zone) with the scope moving in 3-D, its trail by status,
+    /// the current frame with its matched keypoints, where it is along the colon and the
+    /// status with its uncertainty. Loopback (127.0.0.1:8080) unless ADDR names another
+    /// interface. The page stays up after the stream ends, until Ctrl-C; Ctrl-C during the
+    /// stream ends the run after the frame in hand, its files complete.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8080", requires = "video")]
+    serve: Option<String>,
+    /// With --serve: the dataset the model was trained on — the view then gives distances
+    /// from the anus along its mid-line and the anatomical section (otherwise along the
+    /// training pass from its first frame).
+    #[arg(long, value_name = "DATASET", requires = "serve")]
+    train_data: Option<std::path::PathBuf>,
+    /// With --serve: exit when the stream ends instead of serving the page until Ctrl-C.
+    #[arg(long, requires = "serve")]
+    exit_at_end: bool,
 }
 
 /// Runs `endoloc localize`.
 pub fn run_localize(args: LocalizeArgs, ui: &dyn Progress) -> Result<()> {
     let mut job = args.job;
     args.confirm.apply(&mut job.confirm);
-    crate::ui::print(&job.run(ui)?)?;
+    match &args.serve {
+        Some(addr) => serve(&job, addr, args.train_data.as_deref(), args.exit_at_end, ui),
+        None => {
+            crate::ui::print(&job.run(ui)?)?;
+            Ok(())
+        }
+    }
+}
+
+/// `localize --video … --serve ADDR`: the live view's server around the stream's run.
+fn serve(
+    job: &LocalizeJob,
+    addr: &str,
+    train_data: Option<&std::path::Path>,
+    exit_at_end: bool,
+    ui: &dyn Progress,
+) -> Result<()> {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    let model = job
+        .model
+        .as_deref()
+        .ok_or_else(|| anyhow::anyhow!("a model folder is required (--model)"))?;
+    let camera = job.localizer()?.camera().clone();
+    let title = job
+        .video
+        .as_deref()
+        .and_then(|v| v.file_name())
+        .map_or_else(
+            || "standard input".to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+    let view = endoloc_jobs::LiveView::new(model, &camera, train_data, &title, 30_000)?;
+    for m in &view.missing {
+        ui.note(&format!("live view: left out {m}"));
+    }
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let server =
+        endoloc_serve::LiveServer::start(addr, view.page().to_string(), interrupt.clone())?;
+    let bound = server.addr();
+    ui.note(&format!("live view: http://{bound}/"));
+    if !endoloc_serve::is_loopback(&bound) {
+        ui.note(&format!(
+            "live view: {bound} is not loopback — other machines on the network can open the page"
+        ));
+    }
+    let mut failed = None;
+    let report = job.run_video_watched(ui, &interrupt, &mut |f| {
+        let events = view
+            .frame_event(&f, true)
+            .and_then(|full| Ok((full, view.frame_event(&f, false)?)));
+        match events {
+            Ok((full, light)) => server.publish(full, light),
+            Err(e) => {
+                failed.get_or_insert(e);
+            }
+        }
+    });
+    let stopped = interrupt.load(Ordering::SeqCst);
+    let line = match (&report, stopped) {
+        (Err(e), _) => format!("the run failed: {e}"),
+        (Ok(_), true) => format!("stopped (Ctrl-C) after {} frames", server.frames()),
+        (Ok(_), false) => format!("the stream ended after {} frames", server.frames()),
+    };
+    server.end(&line);
+    let report = report?;
+    if let Some(e) = failed {
+        return Err(e.into());
+    }
+    crate::ui::print(&report)?;
+    if !stopped && !exit_at_end {
+        ui.note(&format!(
+            "live view: {line}; the page stays at http://{bound}/ until Ctrl-C"
+        ));
+        while !interrupt.load(Ordering::SeqCst) {
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+    }
+    server.stop();
     Ok(())
 }
 

@@ -24,7 +24,7 @@ pub use results::{
     FRAMES_FILE, INLIERS_FILE, ResultWriter, TRAJECTORY_FILE, frame_record, frame_records,
     inliers_csv, parse_inliers_csv, read_inliers_csv,
 };
-pub use stream::{STREAM_FILE, StreamSummary};
+pub use stream::{STREAM_FILE, StreamSummary, StreamedFrame};
 pub use summary::{LatencyHistogram, RunSummary};
 
 use crate::bail;
@@ -436,8 +436,8 @@ impl LocalizeJob {
                 &format!(" (the results in {})", self.out.display()),
             )?;
         }
-        if let Some(video) = &self.video {
-            return self.run_video(video, progress, on_frame);
+        if self.video.is_some() {
+            return self.run_video(progress, on_frame);
         }
         if self.seq.as_os_str().is_empty() {
             bail!("a sequence folder (`seq`) or a video (`video`) to localize is required");
@@ -569,21 +569,41 @@ impl LocalizeJob {
     /// come (see [`LocalizeJob::video`]).
     fn run_video(
         &self,
-        video: &Path,
         progress: &dyn Progress,
         on_frame: &mut dyn FnMut(FrameResult),
     ) -> Result<LocalizeReport> {
+        let never = std::sync::atomic::AtomicBool::new(false);
+        self.run_video_watched(progress, &never, &mut |f| on_frame(f.result.clone()))
+    }
+
+    /// Localizes the frames of `video` as they come (see [`LocalizeJob::video`]), handing each
+    /// frame — its image, result and latency — to `watch` once its rows are written (a live
+    /// view); stops after the frame in hand when `stop` is set (Ctrl-C), the files complete.
+    ///
+    /// # Errors
+    /// No `video` or `live`, a model or map that cannot be loaded, a video that cannot be
+    /// opened or fails while read (FFmpeg's message), or a failed write.
+    pub fn run_video_watched(
+        &self,
+        progress: &dyn Progress,
+        stop: &std::sync::atomic::AtomicBool,
+        watch: &mut dyn FnMut(StreamedFrame<'_>),
+    ) -> Result<LocalizeReport> {
+        let Some(video) = &self.video else {
+            bail!("no video to localize (`video`)");
+        };
         if self.method != LocalizeMethod::Endoloc || !self.live {
             bail!("`video` is localized live by endoloc: it needs `live` and the method endoloc");
         }
         if !self.seq.as_os_str().is_empty() {
             bail!("give a sequence folder (`seq`) or a video (`video`), not both");
         }
-        let camera = self.localizer()?.camera().clone();
+        let (localizer, black) = self.stream_localizer()?;
+        let camera = localizer.camera();
         let size = (camera.width, camera.height);
         let stream = if video.as_os_str() == "-" {
             let Some(native) = self.size.as_deref().map(parse_size).transpose()? else {
-                bail!("raw frames on standard input need their size (`size` WxH)");
+                bail!("standard input: raw frames need their size (`size` WxH, e.g. 640x480)");
             };
             FrameStream::raw(
                 "standard input",
@@ -600,7 +620,7 @@ impl LocalizeJob {
             }
             FrameStream::open_video(video, size)?
         };
-        self.run_frames(stream, progress, on_frame)
+        self.run_stream(&localizer, stream, black, progress, stop, watch)
     }
 
     /// Localizes the frames of `stream` live, as they come, into `out` (this job's settings;
@@ -618,8 +638,8 @@ impl LocalizeJob {
         progress: &dyn Progress,
         on_frame: &mut dyn FnMut(FrameResult),
     ) -> Result<LocalizeReport> {
-        let localizer = self.localizer()?;
-        let camera = localizer.camera().clone();
+        let (localizer, black) = self.stream_localizer()?;
+        let camera = localizer.camera();
         if stream.size() != (camera.width, camera.height) {
             bail!(
                 "{}: frames of {}x{}; the model's camera is {}x{}",
@@ -630,13 +650,22 @@ impl LocalizeJob {
                 camera.height
             );
         }
+        let never = std::sync::atomic::AtomicBool::new(false);
+        self.run_stream(&localizer, stream, black, progress, &never, &mut |f| {
+            on_frame(f.result.clone())
+        })
+    }
+
+    /// The localizer of a stream, with `mask` (and the mask as an image, to black the frames
+    /// outside it).
+    fn stream_localizer(&self) -> Result<(Localizer, Option<image::GrayImage>)> {
+        let localizer = self.localizer()?;
         let mask = match &self.mask {
-            Some(p) => read_mask(p, &camera)?,
+            Some(p) => read_mask(p, localizer.camera())?,
             None => None,
         };
         let black = mask.as_ref().map(|m| m.to_gray());
-        let localizer = localizer.with_mask(mask);
-        self.run_stream(&localizer, stream, black, progress, on_frame)
+        Ok((localizer.with_mask(mask), black))
     }
 
     /// Writes this job as `localize.toml` into `dir`, so that the run can be repeated (and

@@ -23,6 +23,7 @@
 
 use std::fmt;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
@@ -32,6 +33,7 @@ use endoloc_localize::{FrameResult, Localizer};
 use super::results::LineFile;
 use super::summary::{LatencyHistogram, RunSummary};
 use super::{LOCALIZE_FILE, LocalizeJob, LocalizeReport, ResultWriter};
+use crate::bail;
 use crate::error::{JobError, Result};
 use crate::progress::{Progress, bar};
 
@@ -90,6 +92,21 @@ impl fmt::Display for StreamSummary {
             self.queue_ms.quantile(0.5),
         )
     }
+}
+
+/// A frame of a stream once localized and written, for a live view.
+#[derive(Debug, Clone, Copy)]
+pub struct StreamedFrame<'a> {
+    /// The frame's index in the source.
+    pub index: usize,
+    /// Its time, seconds (the video's clock; raw frames: since the first).
+    pub time_s: f64,
+    /// The frame as localized (grey, the model's camera size).
+    pub image: &'a image::GrayImage,
+    /// What the localizer made of it.
+    pub result: &'a FrameResult,
+    /// From its arrival to its rows written, ms.
+    pub latency_ms: f64,
 }
 
 /// A frame as it arrived.
@@ -153,10 +170,17 @@ impl Mailbox {
         self.changed.notify_all();
     }
 
-    /// The next frame with the frames dropped before it; `None` at the end.
-    fn take(&self) -> Option<std::result::Result<(Arrived, Vec<(usize, f64)>), JobError>> {
+    /// The next frame with the frames dropped before it; `None` at the end, or once `stop` is
+    /// set.
+    fn take(
+        &self,
+        stop: &AtomicBool,
+    ) -> Option<std::result::Result<(Arrived, Vec<(usize, f64)>), JobError>> {
         let mut s = self.lock();
         loop {
+            if stop.load(Ordering::Relaxed) {
+                return None;
+            }
             if let Some(a) = s.frame.take() {
                 let dropped = std::mem::take(&mut s.dropped);
                 self.changed.notify_all();
@@ -167,10 +191,12 @@ impl Mailbox {
                 s.ended = Some(None);
                 return ended.map(|e| Err(e.into()));
             }
+            // Woken by a frame or the end; every 100 ms to look at `stop`.
             s = self
                 .changed
-                .wait(s)
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
+                .wait_timeout(s, Duration::from_millis(100))
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+                .0;
         }
     }
 }
@@ -249,14 +275,16 @@ impl StreamLog {
 impl LocalizeJob {
     /// Localizes `stream` live into `self.out` (see the module docs); `realtime` paces a file
     /// and lets the newest frame win; `black`: the mask outside which every frame is set to
-    /// black, as a dataset's frames are when read.
+    /// black, as a dataset's frames are when read; `stop`: ends the run after the frame in
+    /// hand.
     pub(super) fn run_stream(
         &self,
         localizer: &Localizer,
         stream: FrameStream,
         black: Option<image::GrayImage>,
         progress: &dyn Progress,
-        on_frame: &mut dyn FnMut(FrameResult),
+        stop: &AtomicBool,
+        watch: &mut dyn FnMut(StreamedFrame<'_>),
     ) -> Result<LocalizeReport> {
         // The folder is written as frames finish, not staged: remove an earlier run's files.
         std::fs::create_dir_all(&self.out).map_err(|e| JobError::io(&self.out, e))?;
@@ -271,6 +299,7 @@ impl LocalizeJob {
         let mut log = StreamLog::create(&self.out)?;
         let source = stream.name().to_path_buf();
         let pipe = stream.is_raw();
+        let raw_size = stream.native_size();
         let newest_wins = self.realtime;
         let pace = self.realtime && !pipe;
         let expected = if pipe {
@@ -306,7 +335,7 @@ impl LocalizeJob {
             if pace { "real time" } else { "stream" },
         );
         let t = Instant::now();
-        while let Some(next) = mailbox.take() {
+        while let Some(next) = mailbox.take(stop) {
             let (arrived, dropped) = next?;
             for &(i, time_s) in &dropped {
                 log.dropped(i, time_s)?;
@@ -348,11 +377,32 @@ impl LocalizeJob {
             stream_summary.latency_ms.add(times[2]);
             summary.add(&r);
             with_pose += usize::from(r.t_wc.is_some());
-            on_frame(r);
+            watch(StreamedFrame {
+                index,
+                time_s,
+                image: &image,
+                result: &r,
+                latency_ms: times[2],
+            });
             bar.inc(1 + dropped.len() as u64);
         }
         drop(bar);
         let wall_s = t.elapsed().as_secs_f64();
+        if stream_summary.frames == 0 && !stop.load(Ordering::Relaxed) {
+            let (w, h) = (raw_size.0, raw_size.1);
+            bail!(
+                "{}: no frame arrived{}",
+                source.display(),
+                if pipe {
+                    format!(
+                        "; expected raw {w}x{h} {} frames back to back",
+                        self.pix_fmt
+                    )
+                } else {
+                    String::new()
+                }
+            );
+        }
         writer.finish()?;
         log.file.finish()?;
         if stream_summary.frames > 1 && span.1 > span.0 {
@@ -394,7 +444,7 @@ mod tests {
             std::thread::spawn(move || feed(frames(n), &mailbox, false, newest_wins))
         };
         let (mut taken, mut dropped) = (Vec::new(), Vec::new());
-        while let Some(next) = mailbox.take() {
+        while let Some(next) = mailbox.take(&AtomicBool::new(false)) {
             let (a, d) = next.unwrap();
             assert_eq!(usize::from(a.frame.image.as_raw()[0]), a.frame.index);
             dropped.extend(d.into_iter().map(|(i, _)| i));
@@ -442,7 +492,7 @@ mod tests {
         };
         let mut got = Vec::new();
         let error = loop {
-            match mailbox.take() {
+            match mailbox.take(&AtomicBool::new(false)) {
                 Some(Ok((a, _))) => got.push(a.frame.index),
                 Some(Err(e)) => break e.to_string(),
                 None => panic!("the stream ended without its error"),
@@ -451,6 +501,9 @@ mod tests {
         feeder.join().unwrap();
         assert_eq!(got, [0, 1]);
         assert!(error.contains("inside frame 2"), "{error}");
-        assert!(mailbox.take().is_none(), "after the error, the end");
+        assert!(
+            mailbox.take(&AtomicBool::new(false)).is_none(),
+            "after the error, the end"
+        );
     }
 }

@@ -1,10 +1,12 @@
 // endoloc run viewer: a 3-D view, a frame scrubber and the error along the pass, drawn on
 // 2-D canvases with a hand-written perspective projection. Lengths in mm, world frame, poses
-// T_wc (camera-to-world), camera axes x right, y down, z forward.
+// T_wc (camera-to-world), camera axes x right, y down, z forward. Live (`D.live`), the page
+// starts without frames and appends each one the server's event stream brings.
 (function () {
   'use strict';
   var D = JSON.parse(document.getElementById('viewer-data').textContent);
   var N = D.frames;
+  var LIVE = !!D.live;
   var STATUS = ['refined', 'init_only', 'rejected'];
   var STATUS_COLOUR = ['#4cd964', '#ff9f0a', '#ff453a'];
   var body = document.body;
@@ -102,6 +104,7 @@
     target: scene.centre.slice()
   };
   var drawnPoints = 0, reprojected = 0, matched = 0;
+  var scopeMoves = 0, lastScope = null;
 
   // ---- 3-D view ---------------------------------------------------------------------------
   var c3 = $('view3d'), g3 = c3.getContext('2d');
@@ -193,8 +196,15 @@
         g3.fillRect(s[0] - 1.5, s[1] - 1.5, 3, 3);
       }
     }
-    if (D.gt) frustum(P, D.gt[cur], '#4a9eff');
-    if (D.est[cur]) frustum(P, D.est[cur], '#ffffff');
+    if (D.gt && D.gt[cur]) frustum(P, D.gt[cur], '#4a9eff');
+    if (D.est[cur]) {
+      frustum(P, D.est[cur], '#ffffff');
+      var apex = [0, 0];
+      if (P(D.est[cur][0], D.est[cur][1], D.est[cur][2], apex)) {
+        var key = apex[0].toFixed(1) + ',' + apex[1].toFixed(1);
+        if (key !== lastScope) { scopeMoves++; lastScope = key; }
+      }
+    }
   }
 
   // orbit and zoom
@@ -275,13 +285,14 @@
       gt2.strokeStyle = '#ffd23f'; gt2.lineWidth = 1;
       kps.forEach(function (p) { gt2.beginPath(); gt2.arc(p[0], p[1], 3.5, 0, 2 * Math.PI); gt2.stroke(); });
     }
-    if (!img) {
+    if (!img && D.images[i]) {
       img = new Image();
       imgCache[i] = img;
       img.onload = paint;
       img.src = 'data:' + D.image_mime + ';base64,' + D.images[i];
     }
-    paint();
+    if (img) paint();
+    else { gt2.fillStyle = '#000'; gt2.fillRect(0, 0, ct.width, ct.height); }
   }
 
   // ---- frame information ------------------------------------------------------------------
@@ -289,7 +300,7 @@
   function showInfo() {
     var i = cur, st = STATUS[D.status[i]], e = D.est[i], g = D.gt ? D.gt[i] : null;
     var rows = [
-      ['frame', i + ' of ' + N],
+      ['frame', (D.frame_index ? D.frame_index[i] + ' of the video, at ' + fmt(D.time_s[i], 2, ' s') : i + ' of ' + N)],
       ['zone', D.zone[i] === null ? '—' : D.zone[i] + (D.zone_score[i] === null ? '' : ' (score ' + D.zone_score[i].toFixed(3) + ')')],
       ['status', '<span class="' + st + '">' + st + '</span>'],
       ['reason', D.reason[i] || '—'],
@@ -299,6 +310,12 @@
       ['map points shown', String(reprojected)],
       ['matched keypoints', D.keypoints ? String(matched) : '—']
     ];
+    if (D.along) {
+      rows.splice(1, 0, ['along the colon', D.along[i] === null ? '—' : (D.along[i] / 10).toFixed(1) + ' cm from ' + (D.along_from || 'the start')],
+        ['section', D.section[i] || '—']);
+      if (D.std_mm) rows.push(['position std', fmt(D.std_mm[i], 2, ' mm')]);
+      if (D.latency_ms) rows.push(['frame to pose', fmt(D.latency_ms[i], 1, ' ms')]);
+    }
     if (D.pos_err) {
       rows.push(['position error', fmt(D.pos_err[i], 2, ' mm')]);
       rows.push(['orientation error', fmt(D.rot_err[i], 2, '°')]);
@@ -376,6 +393,12 @@
     body.setAttribute('data-zone', String(D.zone[cur]));
     body.setAttribute('data-status', STATUS[D.status[cur]]);
     body.setAttribute('data-errors', String(window.viewerErrors || 0));
+    body.setAttribute('data-frames', String(N));
+    body.setAttribute('data-scope-moves', String(scopeMoves));
+    if (D.along && N > 0 && D.along[cur] !== null) {
+      body.setAttribute('data-along', D.along[cur].toFixed(1));
+      if (!body.hasAttribute('data-along-first')) body.setAttribute('data-along-first', D.along[cur].toFixed(1));
+    }
   }
   function drawAll() {
     draw3d(); drawThumb(); showInfo(); drawPlot(); mark();
@@ -421,9 +444,69 @@
 
   var counts = [0, 0, 0];
   D.status.forEach(function (s) { counts[s]++; });
+  function summary() {
+    $('summary').textContent = (LIVE ? (liveState + ' · ') : '') + N + ' frames: ' + counts[0] + ' refined, ' + counts[1] +
+      ' init_only, ' + counts[2] + ' rejected; ' + D.zones + ' zones, ' + D.points.length / 3 + ' map points' +
+      (D.gt ? '' : '; no ground truth');
+  }
   $('title').textContent = D.title;
-  $('summary').textContent = N + ' frames: ' + counts[0] + ' refined, ' + counts[1] + ' init_only, ' + counts[2] +
-    ' rejected; ' + D.zones + ' zones, ' + D.points.length / 3 + ' map points' + (D.gt ? '' : '; no ground truth');
   legend();
-  if (N > 0) openFromHash(); else mark();
+
+  // ---- live: frames from the server's event stream ------------------------------------------
+  // Each event is one frame (`f`: its pose7, status, zone, along the colon, thumbnail);
+  // `snapshot` holds every frame so far for a viewer that connects mid-stream (thumbnails only
+  // for the newest), `end` says the stream is over.
+  var liveState = 'connecting', snapshot = -1, pending = false;
+  var FIELDS = ['est', 'zone', 'zone_score', 'status', 'reason', 'inliers', 'rms', 'time_ms', 'images',
+    'along', 'section', 'std_mm', 'latency_ms', 'frame_index', 'time_s', 'keypoints'];
+  function append(f) {
+    D.est.push(f.est); D.zone.push(f.zone); D.zone_score.push(f.zone_score); D.status.push(f.status);
+    D.reason.push(f.reason); D.inliers.push(f.inliers); D.rms.push(f.rms); D.time_ms.push(f.time_ms);
+    D.images.push(f.image || null); D.along.push(f.along); D.section.push(f.section); D.std_mm.push(f.std_mm);
+    D.latency_ms.push(f.latency_ms); D.frame_index.push(f.frame); D.time_s.push(f.t); D.keypoints.push(f.keypoints);
+    counts[f.status]++;
+    N = D.est.length;
+    // thumbnails of all but the last few hundred frames are let go
+    if (N > 300) { D.images[N - 301] = null; delete imgCache[N - 301]; }
+  }
+  function redraw() {
+    pending = false;
+    $('scrub').max = String(Math.max(N - 1, 0));
+    if ($('followLive').checked && N > 0) { cur = N - 1; $('scrub').value = String(cur); }
+    summary();
+    if (N > 0) drawAll(); else mark();
+    body.setAttribute('data-live', liveState);
+    body.setAttribute('data-snapshot', String(snapshot));
+  }
+  function later() { if (!pending) { pending = true; requestAnimationFrame(redraw); } }
+  if (LIVE) {
+    FIELDS.forEach(function (k) { if (!D[k]) D[k] = []; });
+    $('liveBar').style.display = '';
+    var es = new EventSource('events');
+    es.addEventListener('snapshot', function (ev) {
+      var frames = JSON.parse(ev.data);
+      snapshot = frames.length;
+      frames.forEach(append);
+      liveState = 'live';
+      later();
+    });
+    // Each frame drawn as it comes (the scope moves with the video), not batched.
+    es.onmessage = function (ev) {
+      append(JSON.parse(ev.data));
+      liveState = 'live';
+      redraw();
+    };
+    es.addEventListener('end', function (ev) {
+      liveState = 'ended: ' + ev.data;
+      es.close();
+      redraw();
+    });
+    es.onerror = function () { if (liveState.indexOf('ended') !== 0) { liveState = 'reconnecting'; later(); } };
+    summary();
+    mark();
+    body.setAttribute('data-live', liveState);
+  } else {
+    summary();
+    if (N > 0) openFromHash(); else mark();
+  }
 })();
