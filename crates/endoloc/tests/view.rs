@@ -586,7 +586,7 @@ fn the_live_view_follows_a_streamed_video() {
                 "data-snapshot",
                 "data-live",
             ]
-            .map(|k| attr(k))
+            .map(attr)
         })
     };
     let first = viewer("first");

@@ -277,18 +277,18 @@ async fn events_handler(State(shared): State<Arc<Shared>>) -> impl IntoResponse 
                 }
                 Phase::Done => {
                     let line = ended?;
-                    let event = Event::default().event("end").data(line.to_string());
+                    let event = Event::default().event("end").data(&*line);
                     Some((Ok(event), (Phase::Done, rx, None, None)))
                 }
                 Phase::Live => loop {
                     match rx.recv().await {
                         Ok(Message::Frame(seq, _)) if seq < known => continue,
                         Ok(Message::Frame(_, json)) => {
-                            let event = Event::default().data(json.to_string());
+                            let event = Event::default().data(&*json);
                             break Some((Ok(event), (Phase::Live, rx, None, None)));
                         }
                         Ok(Message::End(line)) => {
-                            let event = Event::default().event("end").data(line.to_string());
+                            let event = Event::default().event("end").data(&*line);
                             break Some((Ok(event), (Phase::Done, rx, None, None)));
                         }
                         Err(broadcast::error::RecvError::Lagged(_)) => continue,

@@ -93,7 +93,7 @@ fn serve(
         .model
         .as_deref()
         .ok_or_else(|| anyhow::anyhow!("a model folder is required (--model)"))?;
-    let camera = job.localizer()?.camera().clone();
+    let camera = *job.localizer()?.camera();
     let title = job
         .video
         .as_deref()

@@ -109,6 +109,9 @@ pub struct StreamedFrame<'a> {
     pub latency_ms: f64,
 }
 
+/// A frame taken from the mailbox, with the frames dropped before it (index, time).
+type Taken = (Arrived, Vec<(usize, f64)>);
+
 /// A frame as it arrived.
 struct Arrived {
     frame: StreamFrame,
@@ -172,10 +175,7 @@ impl Mailbox {
 
     /// The next frame with the frames dropped before it; `None` at the end, or once `stop` is
     /// set.
-    fn take(
-        &self,
-        stop: &AtomicBool,
-    ) -> Option<std::result::Result<(Arrived, Vec<(usize, f64)>), JobError>> {
+    fn take(&self, stop: &AtomicBool) -> Option<std::result::Result<Taken, JobError>> {
         let mut s = self.lock();
         loop {
             if stop.load(Ordering::Relaxed) {
