@@ -629,7 +629,13 @@ fn the_live_view_follows_a_streamed_video() {
     }
     let mut sorted = delays.clone();
     sorted.sort_by(f64::total_cmp);
-    assert!(sorted.len() >= 200, "{} events read", sorted.len());
+    println!(
+        "pose to viewer: median {:.2} ms, p95 {:.2} ms over {} events",
+        sorted[sorted.len() / 2],
+        sorted[sorted.len() * 95 / 100],
+        sorted.len()
+    );
+    assert!(sorted.len() >= 150, "{} events read", sorted.len());
     assert!(
         sorted[sorted.len() / 2] <= 100.0,
         "pose to viewer: median {:.1} ms",

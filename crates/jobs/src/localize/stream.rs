@@ -273,6 +273,23 @@ impl StreamLog {
 }
 
 impl LocalizeJob {
+    /// Starts a stream's files in `out`: an earlier run's files there removed (`force` was
+    /// checked before), this job saved, the rows' files created.
+    fn start_files(&self) -> Result<(ResultWriter, StreamLog)> {
+        std::fs::create_dir_all(&self.out).map_err(|e| JobError::io(&self.out, e))?;
+        for name in RUN_FILES {
+            let p = self.out.join(name);
+            if p.exists() {
+                std::fs::remove_file(&p).map_err(|e| JobError::io(&p, e))?;
+            }
+        }
+        self.save(&self.out)?;
+        Ok((
+            ResultWriter::streaming(&self.out)?,
+            StreamLog::create(&self.out)?,
+        ))
+    }
+
     /// Localizes `stream` live into `self.out` (see the module docs); `realtime` paces a file
     /// and lets the newest frame win; `black`: the mask outside which every frame is set to
     /// black, as a dataset's frames are when read; `stop`: ends the run after the frame in
@@ -286,17 +303,9 @@ impl LocalizeJob {
         stop: &AtomicBool,
         watch: &mut dyn FnMut(StreamedFrame<'_>),
     ) -> Result<LocalizeReport> {
-        // The folder is written as frames finish, not staged: remove an earlier run's files.
-        std::fs::create_dir_all(&self.out).map_err(|e| JobError::io(&self.out, e))?;
-        for name in RUN_FILES {
-            let p = self.out.join(name);
-            if p.exists() {
-                std::fs::remove_file(&p).map_err(|e| JobError::io(&p, e))?;
-            }
-        }
-        self.save(&self.out)?;
-        let mut writer = ResultWriter::streaming(&self.out)?;
-        let mut log = StreamLog::create(&self.out)?;
+        // The folder is written as frames finish, not staged, from the first frame on: a source
+        // that gives none leaves it as it was.
+        let mut files: Option<(ResultWriter, StreamLog)> = None;
         let source = stream.name().to_path_buf();
         let pipe = stream.is_raw();
         let raw_size = stream.native_size();
@@ -337,6 +346,10 @@ impl LocalizeJob {
         let t = Instant::now();
         while let Some(next) = mailbox.take(stop) {
             let (arrived, dropped) = next?;
+            let (writer, log) = match &mut files {
+                Some(f) => f,
+                None => files.insert(self.start_files()?),
+            };
             for &(i, time_s) in &dropped {
                 log.dropped(i, time_s)?;
                 span = (span.0.min(time_s), span.1.max(time_s));
@@ -403,6 +416,12 @@ impl LocalizeJob {
                 }
             );
         }
+        let Some((writer, log)) = files else {
+            bail!(
+                "{}: no frame arrived before the run was stopped",
+                source.display()
+            );
+        };
         writer.finish()?;
         log.file.finish()?;
         if stream_summary.frames > 1 && span.1 > span.0 {
