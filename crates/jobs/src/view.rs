@@ -184,6 +184,20 @@ struct CameraData {
     distortion: Option<(&'static str, [f64; 5])>,
 }
 
+impl CameraData {
+    fn of(camera: &Camera) -> Self {
+        CameraData {
+            width: camera.width,
+            height: camera.height,
+            fx: camera.fx,
+            fy: camera.fy,
+            cx: camera.cx,
+            cy: camera.cy,
+            distortion: distortion_of(camera),
+        }
+    }
+}
+
 fn distortion_of(camera: &Camera) -> Option<(&'static str, [f64; 5])> {
     match camera.distortion {
         Distortion::None => None,
@@ -584,15 +598,7 @@ impl ViewJob {
             along_from: None,
             frames: n,
             zones: scene.zones,
-            camera: CameraData {
-                width: camera.width,
-                height: camera.height,
-                fx: camera.fx,
-                fy: camera.fy,
-                cx: camera.cx,
-                cy: camera.cy,
-                distortion: distortion_of(&camera),
-            },
+            camera: CameraData::of(&camera),
             thumb: ThumbData {
                 width: tw,
                 height: th,
@@ -757,15 +763,7 @@ impl LiveView {
             title: title.to_string(),
             frames: 0,
             zones: scene.zones,
-            camera: CameraData {
-                width: camera.width,
-                height: camera.height,
-                fx: camera.fx,
-                fy: camera.fy,
-                cx: camera.cx,
-                cy: camera.cy,
-                distortion: distortion_of(camera),
-            },
+            camera: CameraData::of(camera),
             thumb: ThumbData {
                 width: tw,
                 height: th,

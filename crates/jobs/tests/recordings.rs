@@ -19,21 +19,26 @@ use nalgebra::{Translation3, UnitQuaternion};
 
 const OFFSET_S: f64 = 0.35;
 
-#[test]
-fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video() {
-    let tmp = tempfile::tempdir().unwrap();
-    let data = tmp.path().join("data");
+/// The built-in colon's passes, `train` and `test` frames at 160×120, into `out`.
+fn simulate(out: &std::path::Path, train: usize, test: usize) {
     SimulateJob {
-        train_frames: Some(240),
-        test_frames: Some(2),
+        train_frames: Some(train),
+        test_frames: Some(test),
         width: Some(160),
         height: Some(120),
         depth: Some(false),
-        out: data.clone(),
+        out: out.to_path_buf(),
         ..SimulateJob::default()
     }
     .run(&Silent)
     .unwrap();
+}
+
+#[test]
+fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    simulate(&data, 240, 2);
     let seq = endoloc_data::Dataset::open(&data)
         .unwrap()
         .sequence("train")
@@ -368,17 +373,7 @@ fn a_stream_of_raw_frames_is_localized_as_its_png_files_are() {
     let tmp = tempfile::tempdir().unwrap();
     let root = tmp.path();
     let data = root.join("data");
-    SimulateJob {
-        train_frames: Some(200),
-        test_frames: Some(60),
-        width: Some(160),
-        height: Some(120),
-        depth: Some(false),
-        out: data.clone(),
-        ..SimulateJob::default()
-    }
-    .run(&Silent)
-    .unwrap();
+    simulate(&data, 200, 60);
     let model = root.join("model");
     TrainJob {
         data: data.clone(),
