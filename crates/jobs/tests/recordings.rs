@@ -461,4 +461,54 @@ fn a_stream_of_raw_frames_is_localized_as_its_png_files_are() {
     let log = std::fs::read_to_string(streamed.join(STREAM_FILE)).unwrap();
     assert_eq!(log.lines().count(), 1 + seq.len());
     assert!(log.lines().skip(1).all(|l| l.contains(",localized,")));
+
+    // The pass as an H.264 video with a run of corrupt bytes in the middle: the frames decoded
+    // from them are `rejected` and the stream goes on to the end.
+    if !std::process::Command::new("ffmpeg")
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        eprintln!("skipped: a video needs ffmpeg (Debian: apt install ffmpeg)");
+        return;
+    }
+    let video = root.join("test.mp4");
+    let status = std::process::Command::new("ffmpeg")
+        .args(["-v", "error", "-y", "-framerate", "30", "-i"])
+        .arg(seq.dir.join("images/%06d.png"))
+        .args(["-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "18"])
+        .arg(&video)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let mut bytes = std::fs::read(&video).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid..mid + 1500].fill(0xAB);
+    std::fs::write(&video, bytes).unwrap();
+    let damaged = root.join("damaged");
+    let report = LocalizeJob {
+        video: Some(video.clone()),
+        ..job("damaged")
+    }
+    .run(&Silent)
+    .unwrap();
+    let rows = std::fs::read_to_string(damaged.join("frames.csv")).unwrap();
+    let rejected = rows
+        .lines()
+        .filter(|l| l.contains(",unreadable_image,"))
+        .count();
+    let last = rows
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .to_string();
+    assert!(rejected >= 1, "the damaged frames are rejected:\n{rows}");
+    assert!(
+        report.frame_count >= seq.len() - 5 && last.parse::<usize>().unwrap() >= seq.len() - 5,
+        "the stream goes on to its end: {} frames, the last {last}",
+        report.frame_count
+    );
 }

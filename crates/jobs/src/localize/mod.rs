@@ -656,6 +656,38 @@ impl LocalizeJob {
         })
     }
 
+    /// Localizes `stream` live into `out` with this job's settings (see `stream.rs`).
+    fn run_stream(
+        &self,
+        localizer: &Localizer,
+        stream: FrameStream,
+        black: Option<image::GrayImage>,
+        progress: &dyn Progress,
+        stop: &std::sync::atomic::AtomicBool,
+        watch: &mut dyn FnMut(StreamedFrame<'_>),
+    ) -> Result<LocalizeReport> {
+        let run = stream::StreamRun {
+            out: &self.out,
+            realtime: self.realtime,
+            pix_fmt: self.pix_fmt,
+            job_file: LOCALIZE_FILE,
+            save_job: &|dir| self.save(dir),
+        };
+        let done = run.localize(localizer, stream, black, progress, stop, watch)?;
+        let localized = done.summary.frames;
+        Ok(LocalizeReport {
+            frame_count: localized,
+            with_pose: done.with_pose,
+            ms_per_frame: 1e3 * done.wall_s / localized.max(1) as f64,
+            summary: Some(done.summary),
+            stream: Some(done.stream),
+            wall_s: done.wall_s,
+            note: None,
+            along: false,
+            out: self.out.clone(),
+        })
+    }
+
     /// The localizer of a stream, with `mask` (and the mask as an image, to black the frames
     /// outside it).
     fn stream_localizer(&self) -> Result<(Localizer, Option<image::GrayImage>)> {

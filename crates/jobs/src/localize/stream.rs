@@ -30,9 +30,12 @@ use std::time::{Duration, Instant};
 use endoloc_data::stream::{FrameStream, StreamFrame};
 use endoloc_localize::{FrameResult, Localizer};
 
-use super::results::LineFile;
+use endoloc_data::stream::PixelFormat;
+
+use super::results::{
+    ALONG_FILE, FRAMES_FILE, INLIERS_FILE, LineFile, ResultWriter, TRAJECTORY_FILE,
+};
 use super::summary::{LatencyHistogram, RunSummary};
-use super::{LOCALIZE_FILE, LocalizeJob, LocalizeReport, ResultWriter};
 use crate::bail;
 use crate::error::{JobError, Result};
 use crate::progress::{Progress, bar};
@@ -40,15 +43,42 @@ use crate::progress::{Progress, bar};
 /// The file of a stream's run that lists every frame of the source with its latency.
 pub const STREAM_FILE: &str = "stream.csv";
 
-/// Every file a localization run may write, removed before a stream's run with `force`.
-const RUN_FILES: [&str; 6] = [
-    super::TRAJECTORY_FILE,
-    super::FRAMES_FILE,
-    super::INLIERS_FILE,
-    super::results::ALONG_FILE,
+/// The files of a localization run's rows, removed before a stream's run (`force` checked
+/// by the caller), with [`StreamRun::job_file`].
+const ROW_FILES: [&str; 5] = [
+    TRAJECTORY_FILE,
+    FRAMES_FILE,
+    INLIERS_FILE,
+    ALONG_FILE,
     STREAM_FILE,
-    LOCALIZE_FILE,
 ];
+
+/// What a stream's run needs of its job.
+pub(super) struct StreamRun<'a> {
+    /// The output folder.
+    pub out: &'a std::path::Path,
+    /// Frames as a camera delivers them (see the module docs).
+    pub realtime: bool,
+    /// The raw frames' format (for messages).
+    pub pix_fmt: PixelFormat,
+    /// The file that holds the job, written by `save_job` into the folder when the first frame
+    /// arrives.
+    pub job_file: &'a str,
+    /// Writes the job into a folder.
+    pub save_job: &'a dyn Fn(&std::path::Path) -> Result<()>,
+}
+
+/// What a stream's run did.
+pub(super) struct StreamOutcome {
+    /// Counts and latencies of the frames localized.
+    pub summary: RunSummary,
+    /// Arrivals, drops, latency.
+    pub stream: StreamSummary,
+    /// Frames with a pose.
+    pub with_pose: usize,
+    /// Wall time, seconds.
+    pub wall_s: f64,
+}
 
 /// How a stream's frames went: how many arrived, were dropped, and how long they waited.
 #[derive(Debug, Clone, PartialEq)]
@@ -272,29 +302,26 @@ impl StreamLog {
     }
 }
 
-impl LocalizeJob {
-    /// Starts a stream's files in `out`: an earlier run's files there removed (`force` was
-    /// checked before), this job saved, the rows' files created.
+impl StreamRun<'_> {
+    /// Starts a stream's files in `out`: an earlier run's files there removed, the job saved,
+    /// the rows' files created.
     fn start_files(&self) -> Result<(ResultWriter, StreamLog)> {
-        std::fs::create_dir_all(&self.out).map_err(|e| JobError::io(&self.out, e))?;
-        for name in RUN_FILES {
-            let p = self.out.join(name);
+        let out = self.out;
+        std::fs::create_dir_all(out).map_err(|e| JobError::io(out, e))?;
+        for name in ROW_FILES.iter().chain([&self.job_file]) {
+            let p = out.join(name);
             if p.exists() {
                 std::fs::remove_file(&p).map_err(|e| JobError::io(&p, e))?;
             }
         }
-        self.save(&self.out)?;
-        Ok((
-            ResultWriter::streaming(&self.out)?,
-            StreamLog::create(&self.out)?,
-        ))
+        (self.save_job)(out)?;
+        Ok((ResultWriter::streaming(out)?, StreamLog::create(out)?))
     }
 
-    /// Localizes `stream` live into `self.out` (see the module docs); `realtime` paces a file
-    /// and lets the newest frame win; `black`: the mask outside which every frame is set to
-    /// black, as a dataset's frames are when read; `stop`: ends the run after the frame in
-    /// hand.
-    pub(super) fn run_stream(
+    /// Localizes `stream` live into `out` (see the module docs); `realtime` paces a file and
+    /// lets the newest frame win; `black`: the mask outside which every frame is set to black,
+    /// as a dataset's frames are when read; `stop`: ends the run after the frame in hand.
+    pub(super) fn localize(
         &self,
         localizer: &Localizer,
         stream: FrameStream,
@@ -302,7 +329,7 @@ impl LocalizeJob {
         progress: &dyn Progress,
         stop: &AtomicBool,
         watch: &mut dyn FnMut(StreamedFrame<'_>),
-    ) -> Result<LocalizeReport> {
+    ) -> Result<StreamOutcome> {
         // The folder is written as frames finish, not staged, from the first frame on: a source
         // that gives none leaves it as it was.
         let mut files: Option<(ResultWriter, StreamLog)> = None;
@@ -427,17 +454,11 @@ impl LocalizeJob {
         if stream_summary.frames > 1 && span.1 > span.0 {
             stream_summary.source_fps = (stream_summary.frames - 1) as f64 / (span.1 - span.0);
         }
-        let localized = summary.frames;
-        Ok(LocalizeReport {
-            frame_count: localized,
+        Ok(StreamOutcome {
+            summary,
+            stream: stream_summary,
             with_pose,
-            ms_per_frame: 1e3 * wall_s / localized.max(1) as f64,
-            summary: Some(summary),
-            stream: Some(stream_summary),
             wall_s,
-            note: None,
-            along: false,
-            out: self.out.clone(),
         })
     }
 }
