@@ -52,9 +52,12 @@ fn get<'a>(t: &'a toml::Table, key: &[String]) -> Option<&'a toml::Value> {
     }
 }
 
-/// The job parsed from a command line holding only its required arguments.
-fn parsed_defaults<J: Args + FromArgMatches>(cmd: &Command) -> J {
+/// The job parsed from a command line holding only its required arguments (those required
+/// unless another is given too, as clap names them when they are missing), with the ids of
+/// the arguments given.
+fn parsed_defaults<J: Args + FromArgMatches>(cmd: &Command) -> (J, Vec<String>) {
     let mut line = vec![cmd.get_name().to_string()];
+    let mut given = Vec::new();
     for arg in cmd.get_arguments().filter(|a| a.is_required_set()) {
         let value = arg
             .get_possible_values()
@@ -64,18 +67,42 @@ fn parsed_defaults<J: Args + FromArgMatches>(cmd: &Command) -> J {
             line.push(format!("--{long}"));
         }
         line.push(value);
+        given.push(arg.get_id().to_string());
     }
-    let matches = cmd
-        .clone()
-        .try_get_matches_from(&line)
-        .unwrap_or_else(|e| panic!("{line:?}: {e}"));
-    J::from_arg_matches(&matches).unwrap_or_else(|e| panic!("{line:?}: {e}"))
+    loop {
+        match cmd.clone().try_get_matches_from(&line) {
+            Ok(matches) => {
+                let job = J::from_arg_matches(&matches).unwrap_or_else(|e| panic!("{line:?}: {e}"));
+                return (job, given);
+            }
+            Err(e) if e.kind() == clap::error::ErrorKind::MissingRequiredArgument => {
+                let Some(clap::error::ContextValue::Strings(missing)) =
+                    e.get(clap::error::ContextKind::InvalidArg)
+                else {
+                    panic!("{line:?}: {e}");
+                };
+                let before = line.len();
+                for m in missing {
+                    let flag = m.split_whitespace().next().unwrap_or_default();
+                    let arg = cmd
+                        .get_arguments()
+                        .find(|a| a.get_long().is_some_and(|l| flag == format!("--{l}")))
+                        .unwrap_or_else(|| panic!("{line:?}: {e}"));
+                    line.extend([flag.to_string(), "x".to_string()]);
+                    given.push(arg.get_id().to_string());
+                }
+                assert!(line.len() > before, "{line:?}: {e}");
+            }
+            Err(e) => panic!("{line:?}: {e}"),
+        }
+    }
 }
 
 fn check<J: Args + FromArgMatches + Serialize + Default>(name: &'static str, nested: &[Nested]) {
     let cmd = command::<J>(name);
     let table = toml::Table::try_from(J::default()).expect("the default serialises to TOML");
-    let parsed = toml::Table::try_from(parsed_defaults::<J>(&cmd)).expect("serialises");
+    let (job, given) = parsed_defaults::<J>(&cmd);
+    let parsed = toml::Table::try_from(job).expect("serialises");
     // Every key, `None` ones too (JSON keeps them as null).
     let mut keys: Vec<Vec<String>> = Vec::new();
     let serde_json::Value::Object(json) = serde_json::to_value(J::default()).unwrap() else {
@@ -104,7 +131,7 @@ fn check<J: Args + FromArgMatches + Serialize + Default>(name: &'static str, nes
         covered.push(key.clone());
         let help = arg.get_help().map(|h| h.to_string()).unwrap_or_default();
         assert!(!help.trim().is_empty(), "{name}: argument {id} has no help");
-        if !arg.get_default_values().is_empty() {
+        if !arg.get_default_values().is_empty() && !given.iter().any(|g| g == id) {
             assert_eq!(
                 get(&parsed, &key),
                 get(&table, &key),
