@@ -602,7 +602,7 @@ fn the_live_view_follows_a_streamed_video() {
     let localized = rows.lines().count() - 1;
     // Frames dropped in real time depend on the machine; enough must remain to watch.
     assert!(
-        localized >= 150,
+        localized >= 100,
         "{localized} of 300 frames localized in real time"
     );
     println!("first viewer {first:?}\nsecond viewer {second:?}");

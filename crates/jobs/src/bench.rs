@@ -239,7 +239,7 @@ impl LiveBenchJob {
             bail!("`video` is timed whole, without `against` or `frames`");
         }
         let job = self.localize_job();
-        let camera = *job.localizer()?.camera();
+        let camera = job.camera()?;
         let size = (camera.width, camera.height);
         let native = endoloc_data::import::video::frame_size(video)?;
         progress.note(&format!("decoding {} alone", video.display()));

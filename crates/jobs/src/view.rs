@@ -800,17 +800,14 @@ impl LiveView {
         &self.page
     }
 
-    /// The event of one localized frame (JSON, one line): its pose, status, zone, where it is
-    /// along the colon and in which section, and a JPEG thumbnail of the frame when `thumb`.
+    /// The event of one localized frame (JSON, one line) — its pose, status, zone, where it is
+    /// along the colon and in which section — twice: with a JPEG thumbnail of the frame (for
+    /// the viewers now), and without (for the snapshot of viewers that connect later).
     ///
     /// # Errors
     /// A thumbnail that cannot be encoded, or a value JSON cannot hold.
-    pub fn frame_event(
-        &self,
-        f: &crate::localize::StreamedFrame<'_>,
-        thumb: bool,
-    ) -> Result<String> {
-        let r = f.result;
+    pub fn frame_event(&self, f: &crate::localize::StreamedFrame<'_>) -> Result<(String, String)> {
+        let r = &f.result;
         let est = r.t_wc.as_ref().map(pose7);
         let centre = r.t_wc.map(|p| nalgebra::Point3::from(p.translation.vector));
         let along = match (&self.midline, centre) {
@@ -827,15 +824,9 @@ impl LiveView {
                 .map(|s| s.as_str()),
             _ => None,
         };
-        let image = if thumb {
-            let bytes = encode_thumb(f.image, self.thumb.0, self.thumb.1, 70)?;
-            Some(endoloc_eval::html::base64(&bytes))
-        } else {
-            None
-        };
         let finite = |x: f64| x.is_finite().then_some(x);
         let record = crate::localize::frame_record(f.index, r);
-        let event = LiveFrame {
+        let mut event = LiveFrame {
             frame: f.index,
             t: round(f.time_s, 4),
             est,
@@ -859,12 +850,15 @@ impl LiveView {
             section,
             std_mm: finite(r.position_std_mm).map(|x| round(x, 3)),
             latency_ms: round(f.latency_ms, 2),
-            image,
+            image: None,
             sent: std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
                 .map_or(0.0, |d| round(d.as_secs_f64() * 1e3, 1)),
         };
-        Ok(serde_json::to_string(&event)?)
+        let light = serde_json::to_string(&event)?;
+        let bytes = encode_thumb(f.image, self.thumb.0, self.thumb.1, 70)?;
+        event.image = Some(endoloc_eval::html::base64(&bytes));
+        Ok((serde_json::to_string(&event)?, light))
     }
 }
 

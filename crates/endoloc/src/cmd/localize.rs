@@ -93,7 +93,7 @@ fn serve(
         .model
         .as_deref()
         .ok_or_else(|| anyhow::anyhow!("a model folder is required (--model)"))?;
-    let camera = *job.localizer()?.camera();
+    let camera = job.camera()?;
     let title = job
         .video
         .as_deref()
@@ -117,15 +117,10 @@ fn serve(
         ));
     }
     let mut failed = None;
-    let report = job.run_video_watched(ui, &interrupt, &mut |f| {
-        let events = view
-            .frame_event(&f, true)
-            .and_then(|full| Ok((full, view.frame_event(&f, false)?)));
-        match events {
-            Ok((full, light)) => server.publish(full, light),
-            Err(e) => {
-                failed.get_or_insert(e);
-            }
+    let report = job.run_video_watched(ui, &interrupt, &mut |f| match view.frame_event(&f) {
+        Ok((full, light)) => server.publish(full, light),
+        Err(e) => {
+            failed.get_or_insert(e);
         }
     });
     let stopped = interrupt.load(Ordering::SeqCst);

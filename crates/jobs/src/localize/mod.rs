@@ -573,7 +573,7 @@ impl LocalizeJob {
         on_frame: &mut dyn FnMut(FrameResult),
     ) -> Result<LocalizeReport> {
         let never = std::sync::atomic::AtomicBool::new(false);
-        self.run_video_watched(progress, &never, &mut |f| on_frame(f.result.clone()))
+        self.run_video_watched(progress, &never, &mut |f| on_frame(f.result))
     }
 
     /// Localizes the frames of `video` as they come (see [`LocalizeJob::video`]), handing each
@@ -652,7 +652,7 @@ impl LocalizeJob {
         }
         let never = std::sync::atomic::AtomicBool::new(false);
         self.run_stream(&localizer, stream, black, progress, &never, &mut |f| {
-            on_frame(f.result.clone())
+            on_frame(f.result)
         })
     }
 
@@ -686,6 +686,19 @@ impl LocalizeJob {
             along: false,
             out: self.out.clone(),
         })
+    }
+
+    /// The camera of `model` as its `model.toml` states it (what the localizer's frames must
+    /// be), without loading the network or the map.
+    ///
+    /// # Errors
+    /// No model folder, or a `model.toml` that cannot be read.
+    pub fn camera(&self) -> Result<endoloc_geometry::Camera> {
+        let model = self
+            .model
+            .as_deref()
+            .context("a model folder is required (`model`)")?;
+        Ok(endoloc_net::model::ModelConfig::load(model)?.camera)
     }
 
     /// The localizer of a stream, with `mask` (and the mask as an image, to black the frames

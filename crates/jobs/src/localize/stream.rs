@@ -125,7 +125,7 @@ impl fmt::Display for StreamSummary {
 }
 
 /// A frame of a stream once localized and written, for a live view.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 pub struct StreamedFrame<'a> {
     /// The frame's index in the source.
     pub index: usize,
@@ -134,7 +134,7 @@ pub struct StreamedFrame<'a> {
     /// The frame as localized (grey, the model's camera size).
     pub image: &'a image::GrayImage,
     /// What the localizer made of it.
-    pub result: &'a FrameResult,
+    pub result: FrameResult,
     /// From its arrival to its rows written, ms.
     pub latency_ms: f64,
 }
@@ -421,7 +421,7 @@ impl StreamRun<'_> {
                 index,
                 time_s,
                 image: &image,
-                result: &r,
+                result: r,
                 latency_ms: times[2],
             });
             bar.inc(1 + dropped.len() as u64);
