@@ -267,6 +267,7 @@ def localize(
     size: str | None = ...,
     pix_fmt: Literal["gray8", "rgb24"] = ...,
     mask: StrPath | None = ...,
+    camera: StrPath | None = ...,
     out: StrPath = ...,
     live: bool = ...,
     track_frames: int = ...,
@@ -313,6 +314,9 @@ def localize(
     - ``size``: Raw frames on standard input: their size, ``"WxH"``.
     - ``pix_fmt``: Raw frames on standard input: ``gray8`` or ``rgb24``.
     - ``mask``: With ``video``: the frames' image mask, a dataset folder or a mask PNG.
+    - ``camera``: The frames' camera when it is not the model's (another scope): a TOML file
+      with a ``[camera]`` table as in ``dataset.toml``; default the sequence's own
+      ``camera.toml``, else the model's camera.
     - ``out``: Output folder.
     - ``live``: Frames one at a time, in order, as a scope delivers them.
     - ``track_frames``: Live: frames a refined pose stays usable as the next frames'

@@ -191,6 +191,7 @@ class Localizer:
         mask: StrPath | None = None,
         *,
         also_model: _Seq[StrPath] = ...,
+        camera: StrPath | None = ...,
         track_frames: int = ...,
         recover_frames: int = ...,
         hold_frames: int = ...,

@@ -212,6 +212,12 @@ pub fn check_dataset(dir: &Path) -> Result<CheckReport, DataError> {
 /// Checks one sequence folder, adding its problems to the report.
 fn check_sequence(seq: &Path, camera: Option<&Camera>, report: &mut CheckReport) {
     let problems = &mut report.problems;
+    // The sequence's own camera (another scope), when it has one.
+    if let Some(c) = camera
+        && let Err(e) = crate::sequence_camera(seq, c)
+    {
+        problems.push(Problem::from_error(e));
+    }
     // poses.txt: every line.
     let poses_path = seq.join(POSES_FILE);
     let mut n_poses = 0usize;

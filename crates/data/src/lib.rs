@@ -30,7 +30,8 @@ pub use centerline::{
 pub use check::{CheckReport, Problem, check_dataset};
 pub use dataset::{
     CHANGED_POSES_FILE, Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, MASK_FILE,
-    MIDLINE_FILE, Sequence, SequenceWriter, black_outside, mask_from_png, write_dataset_mask,
+    MIDLINE_FILE, SEQUENCE_CAMERA_FILE, Sequence, SequenceWriter, black_outside, mask_from_png,
+    read_camera_file, sequence_camera, write_dataset_mask, write_sequence_camera,
 };
 pub use error::{DataError, toml_error_line};
 pub use fingerprint::{Fingerprint, poses_fingerprint};

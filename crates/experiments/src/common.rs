@@ -195,6 +195,8 @@ pub(super) struct FeatureCache {
     pub retry: Vec<Vec<Feature>>,
     /// Their extraction time, ms.
     pub retry_ms: Vec<f64>,
+    /// The sequence's own camera (`camera.toml`: a pass from another scope), when it has one.
+    pub camera: Option<endoloc_geometry::Camera>,
 }
 
 impl FeatureCache {
@@ -248,6 +250,10 @@ impl FeatureCache {
         } else {
             (Vec::new(), Vec::new())
         };
+        let camera = endoloc_data::sequence_camera(
+            &seq.dir,
+            &endoloc_jobs::localize::dataset_camera(&seq.dir)?,
+        )?;
         Ok(Self {
             surf: surf.clone(),
             retry_threshold,
@@ -255,6 +261,7 @@ impl FeatureCache {
             surf_ms,
             retry,
             retry_ms,
+            camera,
         })
     }
 
@@ -350,6 +357,10 @@ pub(super) fn run_endoloc(
         ..LocalizerConfig::default()
     };
     let localizer = Localizer::new(classifier, map, cfg)?;
+    let localizer = match features.camera {
+        Some(camera) => localizer.with_camera(camera)?,
+        None => localizer,
+    };
     let n = preds.len();
     let times = |i: usize| StageTimes {
         zone_ms,

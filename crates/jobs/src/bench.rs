@@ -287,8 +287,12 @@ impl LiveBenchJob {
     /// `seq` and `other` through the current localizer, frame by frame, alternating which
     /// goes first; as many frames of each as the shorter has (or `frames`).
     fn run_against(&self, other: &Path, progress: &dyn Progress) -> Result<LiveBenchReport> {
-        let job = self.localize_job();
         let open = |path: &Path| -> Result<(Localizer, Sequence)> {
+            // Each sequence with its own camera (a changed pass may come from another scope).
+            let job = LocalizeJob {
+                seq: path.to_path_buf(),
+                ..self.localize_job()
+            };
             let localizer = job.localizer()?.with_mask(dataset_mask(path)?);
             let seq =
                 Sequence::open(path).with_context(|| format!("opening {}", path.display()))?;

@@ -312,10 +312,13 @@ impl ClassifyJob {
                 ..LocalizerConfig::default()
             };
             let mask = crate::localize::dataset_mask(&self.seq)?;
-            (
-                None,
-                Some(Localizer::new(loaded, map, cfg)?.with_mask(mask)),
-            )
+            let mut localizer = Localizer::new(loaded, map, cfg)?.with_mask(mask);
+            // A pass from another scope registers with its own camera.
+            let ds = crate::localize::dataset_camera(&self.seq)?;
+            if let Some(camera) = endoloc_data::sequence_camera(&self.seq, &ds)? {
+                localizer = localizer.with_camera(camera)?;
+            }
+            (None, Some(localizer))
         } else {
             (Some(loaded), None)
         };

@@ -2,7 +2,8 @@
 //! changes between the passes"). Three datasets from one seed share their training pass
 //! (changes touch the test pass only), so one model and map serve them all: the test pass
 //! through the unchanged colon, through a colon whose mobile segments moved by 15 mm, through
-//! a colon insufflated by up to ±15 %, and behind foam on the lens in every frame.
+//! a colon insufflated by up to ±15 %, behind foam on the lens in every frame, and through a
+//! scope with a 10° wider field of view.
 
 use std::path::{Path, PathBuf};
 
@@ -125,7 +126,10 @@ fn a_changed_test_pass_is_placed_by_the_unchanged_map_or_flagged() {
     foam.look.bubble_frames = 1.0;
     foam.look.bubble_cover = 1.0;
     let foam = simulate(&root.join("foam"), foam);
-    for data in [&shifted, &insufflated, &foam] {
+    let mut scope = ChangeConfig::default();
+    scope.scope.hfov_change_deg = 10.0;
+    let wider_scope = simulate(&root.join("wider-scope"), scope);
+    for data in [&shifted, &insufflated, &foam, &wider_scope] {
         assert_eq!(
             std::fs::read(data.join("train/poses.txt")).unwrap(),
             std::fs::read(none.join("train/poses.txt")).unwrap(),
@@ -201,6 +205,56 @@ fn a_changed_test_pass_is_placed_by_the_unchanged_map_or_flagged() {
         let behind = localize(&model, &foam, &root.join(format!("foam-{live}")), live);
         assert_eq!(refined(&behind), 0, "foam, live {live}: {behind:?}");
     }
+
+    // Another scope (a 10° wider field of view): the test pass keeps its camera beside it,
+    // and registers with it as well as the unchanged pass does; taken for the map's camera,
+    // the same frames land millimetres off.
+    let own = endoloc_data::read_camera_file(&wider_scope.join("test/camera.toml")).unwrap();
+    let map_camera = endoloc_data::Dataset::open(&wider_scope)
+        .unwrap()
+        .meta
+        .camera;
+    assert!(
+        own.fx < 0.9 * map_camera.fx
+            && (own.width, own.height) == (map_camera.width, map_camera.height),
+        "test scope {own:?}, map scope {map_camera:?}"
+    );
+    let (clear, with_own, as_map) = (
+        root.join("none-true"),
+        root.join("scope-own"),
+        root.join("scope-as-map"),
+    );
+    let own_status = localize(&model, &wider_scope, &with_own, true);
+    LocalizeJob {
+        model: Some(model.clone()),
+        seq: wider_scope.join("test"),
+        camera: Some(wider_scope.join("dataset.toml")),
+        out: as_map.clone(),
+        live: true,
+        ..LocalizeJob::default()
+    }
+    .run(&Silent)
+    .unwrap();
+    let (clear_mm, _) = refined_errors(&clear, &none);
+    let (own_mm, _) = refined_errors(&with_own, &wider_scope);
+    let (as_map_mm, _) = refined_errors(&as_map, &wider_scope);
+    let clear_refined = refined(&statuses(&clear));
+    eprintln!(
+        "wider scope: {} of {} refined ({clear_refined} unchanged), {own_mm:.2} mm median with \
+         its camera, {as_map_mm:.2} mm taken for the map's ({clear_mm:.2} mm unchanged)",
+        refined(&own_status),
+        own_status.len()
+    );
+    assert!(
+        refined(&own_status) * 2 >= clear_refined && own_mm < 2.0 * clear_mm + 0.2,
+        "with its own camera: {own_mm:.2} mm median, {} of {} refined ({clear_refined} unchanged)",
+        refined(&own_status),
+        own_status.len()
+    );
+    assert!(
+        as_map_mm > 2.0 * own_mm,
+        "taken for the map's camera: {as_map_mm:.2} mm"
+    );
 
     // A colon insufflated more or less than when it was mapped: rigid poses land millimetres
     // off along the lumen, outside their stated bounds; with the colon's scale estimated

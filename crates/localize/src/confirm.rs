@@ -190,18 +190,21 @@ impl Confirmation {
 /// [`ConfirmConfig::neighbour_zones`] on each side): the rounds of
 /// [`ConfirmConfig::radii_px`], each guided matching then Gauss-Newton from the previous pose,
 /// validity checked with `registration`'s thresholds; from more starts when the result is
-/// weakly supported, as the [module documentation](self) describes. Inlier counts are those of
-/// `cfg` scaled to the map camera's image size ([`ConfirmConfig::for_camera`]).
+/// weakly supported, as the [module documentation](self) describes. `camera` is the frame's
+/// (the map's, or another scope's of the same size). Inlier counts are those of `cfg` scaled
+/// to the image size ([`ConfirmConfig::for_camera`]).
+#[allow(clippy::too_many_arguments)]
 pub fn confirm(
     features: &[Feature],
     map: &Map,
+    camera: &Camera,
     zone: usize,
     t_wc: &Pose,
     matcher: &MatcherConfig,
     registration: &RegistrationConfig,
     cfg: &ConfirmConfig,
 ) -> Confirmation {
-    let cfg = &cfg.for_camera(&map.camera, registration.validity.min_inliers);
+    let cfg = &cfg.for_camera(camera, registration.validity.min_inliers);
     let lo = zone.saturating_sub(cfg.neighbour_zones);
     let hi = (zone + cfg.neighbour_zones + 1).min(map.zones.len());
     let candidates: Vec<&MapPoint> = map
@@ -225,7 +228,7 @@ pub fn confirm(
         confirm_from(
             features,
             &candidates,
-            &map.camera,
+            camera,
             start,
             &matcher,
             &registration,

@@ -839,6 +839,7 @@ fn confirmation_sharpens_right_registrations_and_refuses_a_pose_the_map_does_not
     let c = confirm(
         feats,
         &f.map,
+        &f.map.camera,
         zone,
         &off,
         &confirming.config().matcher,
@@ -852,6 +853,7 @@ fn confirmation_sharpens_right_registrations_and_refuses_a_pose_the_map_does_not
     let c = confirm(
         elsewhere,
         &f.map,
+        &f.map.camera,
         zone,
         &truth,
         &confirming.config().matcher,

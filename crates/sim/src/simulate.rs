@@ -124,12 +124,27 @@ pub fn simulate(
         }
         Some(changed)
     };
+    // The test scope: the map scope's optics with another field of view, when it changes.
+    let test_camera = if cfg.changes.scope.hfov_change_deg == 0.0 {
+        camera
+    } else {
+        crate::config::CameraConfig {
+            hfov_deg: cfg.camera.hfov_deg + cfg.changes.scope.hfov_change_deg,
+            ..cfg.camera.clone()
+        }
+        .camera()
+        .map_err(|e| {
+            SimError::InvalidConfig(format!(
+                "the test scope (changes.scope.hfov_change_deg): {e}"
+            ))
+        })?
+    };
     let test_renderer = match &changed {
         Some(c) => Some(
             Renderer::new(
                 c.colon.as_ref().unwrap_or(&colon),
                 c.atlas.as_ref().unwrap_or(&atlas),
-                camera,
+                test_camera,
                 RenderConfig {
                     motion_blur_samples: c
                         .motion_blur_samples
@@ -167,6 +182,9 @@ pub fn simulate(
             frames: pass.poses.len(),
         });
         let seq = writer.sequence(name)?;
+        if *name == "test" && test_camera != camera {
+            seq.write_camera(&test_camera)?;
+        }
         let seq_seed = splitmix64(generator.config().seed ^ 0x5EED);
         render_pass(
             renderer,

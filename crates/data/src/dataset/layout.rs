@@ -15,6 +15,12 @@ pub const POSES_FILE: &str = "poses.txt";
 /// `poses.txt` holds each frame's anatomical pose — in the colon as it was mapped, what a
 /// localizer should output — and this file the pose the frame was taken from.
 pub const CHANGED_POSES_FILE: &str = "poses_changed.txt";
+/// File name of a sequence's own camera, in the sequence folder: a `[camera]` table as in
+/// `dataset.toml` (model, size, intrinsics in pixels, optional `[camera.distortion]`; no mask)
+/// for a pass taken with another scope than the dataset's `[camera]` — another field of view,
+/// principal point or distortion at the same image size. Without it a sequence's camera is the
+/// dataset's.
+pub const SEQUENCE_CAMERA_FILE: &str = "camera.toml";
 /// File name of the colon's mid-line at the dataset's root: one point `x y z` (mm, world
 /// frame) per line from the anus to the caecum, `#` comments. In a dataset whose colon changed
 /// between the passes, the mid-line of the colon as mapped (the frame of every `poses.txt`).

@@ -6,7 +6,7 @@ use endoloc_geometry::Camera;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-use super::layout::{FORMAT_VERSION, MASK_FILE, UNITS};
+use super::layout::{FORMAT_VERSION, MASK_FILE, SEQUENCE_CAMERA_FILE, UNITS};
 
 /// The contents of `dataset.toml`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -121,6 +121,84 @@ impl DatasetMeta {
     }
 }
 
+/// The camera stated by the `[camera]` table of a TOML file: a sequence's `camera.toml`, a
+/// `dataset.toml`, or a file of its own for another scope (`localize --camera`). A `mask` in
+/// the table is ignored (masks belong to a dataset).
+///
+/// # Errors
+/// [`DataError::Io`]; [`DataError::Parse`] naming the line; [`DataError::Invalid`] when the
+/// file has no `[camera]` table or the camera is invalid.
+pub fn read_camera_file(path: &Path) -> Result<Camera, DataError> {
+    let text = read_text(path)?;
+    #[derive(Deserialize)]
+    struct File {
+        camera: Option<meta_toml::CameraRepr>,
+    }
+    let file: File = toml::from_str(&text).map_err(|e| {
+        let (line, message) = crate::toml_error_line(&text, &e);
+        DataError::parse(path, line, message)
+    })?;
+    let Some(repr) = file.camera else {
+        return Err(DataError::invalid(
+            path,
+            "no [camera] table; expected one with width, height, fx, fy, cx, cy (pixels)",
+        ));
+    };
+    let camera = repr.camera();
+    camera
+        .validate()
+        .map_err(|e| DataError::invalid(path, format!("[camera]: {e}")))?;
+    Ok(camera)
+}
+
+/// The camera of the sequence in folder `seq_dir` when it has its own
+/// ([`SEQUENCE_CAMERA_FILE`]), checked against the dataset's `dataset_camera`: same image size.
+/// `None` when the sequence was taken with the dataset's camera.
+///
+/// # Errors
+/// As [`read_camera_file`]; [`DataError::Invalid`] for another image size.
+pub fn sequence_camera(
+    seq_dir: &Path,
+    dataset_camera: &Camera,
+) -> Result<Option<Camera>, DataError> {
+    let path = seq_dir.join(SEQUENCE_CAMERA_FILE);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let camera = read_camera_file(&path)?;
+    if (camera.width, camera.height) != (dataset_camera.width, dataset_camera.height) {
+        return Err(DataError::invalid(
+            &path,
+            format!(
+                "a {}x{} camera; expected the dataset's image size, {}x{} (a sequence's own \
+                 camera may differ in field of view, principal point or distortion, not in size)",
+                camera.width, camera.height, dataset_camera.width, dataset_camera.height
+            ),
+        ));
+    }
+    Ok(Some(camera))
+}
+
+/// Writes `camera` as the sequence's own camera ([`SEQUENCE_CAMERA_FILE`] in `seq_dir`),
+/// atomically.
+///
+/// # Errors
+/// [`DataError::Io`] when the file cannot be written.
+pub fn write_sequence_camera(seq_dir: &Path, camera: &Camera) -> Result<(), DataError> {
+    #[derive(Serialize)]
+    struct File {
+        camera: meta_toml::CameraRepr,
+    }
+    let body = toml::to_string(&File {
+        camera: meta_toml::CameraRepr::of(camera),
+    })
+    .map_err(|e| DataError::invalid(seq_dir, format!("cannot write the camera: {e}")))?;
+    let text = format!(
+        "# endoloc sequence camera: this sequence's scope (intrinsics in pixels), at the dataset's image size\n{body}"
+    );
+    crate::write_atomic(&seq_dir.join(SEQUENCE_CAMERA_FILE), text.as_bytes())
+}
+
 /// `dataset.toml` as stored: `[camera]` holds the [`Camera`], `model = "pinhole"` and the mask.
 mod meta_toml {
     use crate::dataset::meta::DatasetMeta;
@@ -159,6 +237,36 @@ mod meta_toml {
         distortion: Distortion,
     }
 
+    impl CameraRepr {
+        /// The camera (the mask aside).
+        pub(super) fn camera(&self) -> Camera {
+            Camera {
+                width: self.width,
+                height: self.height,
+                fx: self.fx,
+                fy: self.fy,
+                cx: self.cx,
+                cy: self.cy,
+                distortion: self.distortion,
+            }
+        }
+
+        /// The table of `camera`, without a mask.
+        pub(super) fn of(c: &Camera) -> Self {
+            CameraRepr {
+                model: pinhole(),
+                width: c.width,
+                height: c.height,
+                fx: c.fx,
+                fy: c.fy,
+                cx: c.cx,
+                cy: c.cy,
+                mask: None,
+                distortion: c.distortion,
+            }
+        }
+    }
+
     #[derive(Serialize, Deserialize)]
     #[serde(deny_unknown_fields)]
     pub(super) struct MetaRepr {
@@ -175,22 +283,13 @@ mod meta_toml {
     impl TryFrom<MetaRepr> for DatasetMeta {
         type Error = String;
         fn try_from(r: MetaRepr) -> Result<Self, String> {
-            let c = r.camera;
             Ok(DatasetMeta {
                 name: r.name,
                 format_version: r.format_version,
                 units: r.units,
                 source: r.source,
-                camera: Camera {
-                    width: c.width,
-                    height: c.height,
-                    fx: c.fx,
-                    fy: c.fy,
-                    cx: c.cx,
-                    cy: c.cy,
-                    distortion: c.distortion,
-                },
-                mask: c.mask,
+                camera: r.camera.camera(),
+                mask: r.camera.mask,
                 simulation: r.simulation,
             })
         }
@@ -198,22 +297,14 @@ mod meta_toml {
 
     impl From<DatasetMeta> for MetaRepr {
         fn from(m: DatasetMeta) -> Self {
-            let c = m.camera;
             MetaRepr {
                 name: m.name,
                 format_version: m.format_version,
                 units: m.units,
                 source: m.source,
                 camera: CameraRepr {
-                    model: pinhole(),
-                    width: c.width,
-                    height: c.height,
-                    fx: c.fx,
-                    fy: c.fy,
-                    cx: c.cx,
-                    cy: c.cy,
                     mask: m.mask,
-                    distortion: c.distortion,
+                    ..CameraRepr::of(&m.camera)
                 },
                 simulation: m.simulation,
             }

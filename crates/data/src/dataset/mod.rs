@@ -23,10 +23,10 @@ mod writer;
 
 pub use layout::{
     CHANGED_POSES_FILE, DEPTH_DIR, FORMAT_VERSION, IMAGES_DIR, MASK_FILE, META_FILE, MIDLINE_FILE,
-    POSES_FILE, SECTIONS_FILE, UNITS,
+    POSES_FILE, SECTIONS_FILE, SEQUENCE_CAMERA_FILE, UNITS,
 };
 pub use mask::{black_outside, mask_from_png, write_dataset_mask};
-pub use meta::DatasetMeta;
+pub use meta::{DatasetMeta, read_camera_file, sequence_camera, write_sequence_camera};
 pub(crate) use reader::list_pngs;
 pub use reader::{Dataset, Sequence};
 pub use writer::{DatasetWriter, SequenceWriter};

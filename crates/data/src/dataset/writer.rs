@@ -406,6 +406,27 @@ impl SequenceWriter {
         write_tum(&self.dir.join(file), poses).map_err(|e| e.relocated(&self.dir, &self.final_dir))
     }
 
+    /// Writes this sequence's own camera ([`crate::SEQUENCE_CAMERA_FILE`]: a pass taken with
+    /// another scope than the dataset's, at the same image size).
+    ///
+    /// # Errors
+    /// [`DataError::Invalid`] for another image size than the dataset camera's; I/O errors.
+    pub fn write_camera(&self, camera: &endoloc_geometry::Camera) -> Result<(), DataError> {
+        let c = &self.shared.camera;
+        let ds = (c.width, c.height);
+        if (camera.width, camera.height) != ds {
+            return Err(DataError::invalid(
+                self.final_dir.join(crate::SEQUENCE_CAMERA_FILE),
+                format!(
+                    "a {}x{} camera; expected the dataset's image size, {}x{}",
+                    camera.width, camera.height, ds.0, ds.1
+                ),
+            ));
+        }
+        super::meta::write_sequence_camera(&self.dir, camera)
+            .map_err(|e| e.relocated(&self.dir, &self.final_dir))
+    }
+
     /// Number of distinct frames whose image has been written so far.
     pub fn frames_written(&self) -> usize {
         lock(&self.frames).images.len()

@@ -141,6 +141,14 @@ pub struct LocalizeJob {
     /// of the model's camera size, non-zero = valid (default: none).
     #[cfg_attr(feature = "cli", arg(long, value_name = "PATH", requires = "video"))]
     pub mask: Option<PathBuf>,
+    /// The camera the frames come from when it is not the model's (another scope: another
+    /// field of view, principal point or distortion): a TOML file with a `[camera]` table as
+    /// in dataset.toml (width, height, fx, fy, cx, cy in pixels, optional
+    /// `[camera.distortion]`). A camera of another size than the model's is scaled to it, as
+    /// the frames are (the aspect ratio must be the same). Default: the sequence's own
+    /// camera.toml when it has one, else the model's camera.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "FILE"))]
+    pub camera: Option<PathBuf>,
     /// Output folder.
     #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub out: PathBuf,
@@ -263,6 +271,7 @@ impl Default for LocalizeJob {
             size: None,
             pix_fmt: PixelFormat::default(),
             mask: None,
+            camera: None,
             out: PathBuf::new(),
             live: false,
             track_frames: cfg.track_frames,
@@ -407,7 +416,38 @@ impl LocalizeJob {
         let map = load_map(model)?;
         let mut cfg = self.localizer_config(&map.config.surf);
         adjust(&mut cfg, &map.config.surf);
-        Ok(Localizer::new(classifier, map, cfg)?)
+        let localizer = Localizer::new(classifier, map, cfg)?;
+        match self.frames_camera(localizer.camera())? {
+            Some(camera) => Ok(localizer.with_camera(camera)?),
+            None => Ok(localizer),
+        }
+    }
+
+    /// The camera of the frames, when it is not the model's (`model_camera`): `camera`, scaled
+    /// to the model's image size, else the sequence's own camera.toml.
+    ///
+    /// # Errors
+    /// A camera file that cannot be read, or of another aspect ratio than the model's camera.
+    pub fn frames_camera(
+        &self,
+        model_camera: &endoloc_geometry::Camera,
+    ) -> Result<Option<endoloc_geometry::Camera>> {
+        if let Some(path) = &self.camera {
+            let c = endoloc_data::read_camera_file(path)?;
+            return Ok(Some(fit_camera(path, c, model_camera)?));
+        }
+        if self.seq.as_os_str().is_empty() || !self.seq.is_dir() {
+            return Ok(None);
+        }
+        let Some(root) = self
+            .seq
+            .parent()
+            .filter(|r| r.join(endoloc_data::dataset::META_FILE).is_file())
+        else {
+            return Ok(None);
+        };
+        let ds = endoloc_data::DatasetMeta::read(&root.join(endoloc_data::dataset::META_FILE))?;
+        Ok(endoloc_data::sequence_camera(&self.seq, &ds.camera)?)
     }
 
     /// Localizes the sequence and writes the results.
@@ -842,6 +882,34 @@ pub(crate) fn parse_size(text: &str) -> Result<(u32, u32)> {
         Some((w, h)) if w > 0 && h > 0 => Ok((w, h)),
         _ => bail!("`size` {text:?}; expected WxH in pixels, e.g. 640x480"),
     }
+}
+
+/// `camera` (read from `path`) for frames resized to `model`'s image size: scaled by the ratio
+/// of the widths; the heights must then agree (the same aspect ratio).
+fn fit_camera(
+    path: &Path,
+    camera: endoloc_geometry::Camera,
+    model: &endoloc_geometry::Camera,
+) -> Result<endoloc_geometry::Camera> {
+    if (camera.width, camera.height) == (model.width, model.height) {
+        return Ok(camera);
+    }
+    let scale = f64::from(model.width) / f64::from(camera.width);
+    let scaled = camera.scaled(scale);
+    if scaled.height != model.height {
+        bail!(
+            "{}: a {}x{} camera cannot be scaled to the model's {}x{} (another aspect ratio)",
+            path.display(),
+            camera.width,
+            camera.height,
+            model.width,
+            model.height
+        );
+    }
+    Ok(endoloc_geometry::Camera {
+        width: model.width,
+        ..scaled
+    })
 }
 
 /// The camera of the dataset a sequence folder belongs to (its parent's `dataset.toml`).

@@ -21,6 +21,9 @@ use super::result::{FrameResult, PoseSource, StageTimes};
 pub struct Localizer {
     pub(super) classifier: ZoneClassifier,
     pub(super) map: Map,
+    /// The camera of the frames localized: the map's unless [`Localizer::with_camera`] names
+    /// another scope (same image size).
+    pub(super) camera: Camera,
     pub(super) cfg: LocalizerConfig,
     pub(super) surf: Surf,
     /// SURF at [`LocalizerConfig::retry_threshold`](crate::LocalizerConfig::retry_threshold), when that is on.
@@ -154,6 +157,7 @@ impl Localizer {
             gate,
             mask: None,
             classifier,
+            camera: map.camera,
             map,
             cfg,
             surf,
@@ -173,9 +177,31 @@ impl Localizer {
         self
     }
 
-    /// The camera of the model (test images must match it).
+    /// This localizer for frames from another scope than the map's: `camera`'s intrinsics
+    /// and distortion project the map points into them (the zone network sees the frames as
+    /// they are). The image size must be the map camera's.
+    ///
+    /// # Errors
+    /// [`LocalizeError::Mismatch`] for another image size; [`LocalizeError::Config`] for an
+    /// invalid camera.
+    pub fn with_camera(mut self, camera: Camera) -> Result<Self, LocalizeError> {
+        camera.validate().map_err(LocalizeError::Config)?;
+        let m = &self.map.camera;
+        if (camera.width, camera.height) != (m.width, m.height) {
+            return Err(LocalizeError::Mismatch(format!(
+                "the frames' camera is {}x{} but the model's is {}x{}: give frames of the \
+                 model's size (resize them, with the camera's intrinsics scaled alike)",
+                camera.width, camera.height, m.width, m.height
+            )));
+        }
+        self.camera = camera;
+        Ok(self)
+    }
+
+    /// The camera of the frames localized (the model's unless [`Localizer::with_camera`] set
+    /// another; test images must have its size).
     pub fn camera(&self) -> &Camera {
-        &self.map.camera
+        &self.camera
     }
 
     /// The classifier.
@@ -292,7 +318,7 @@ impl Localizer {
             crate::guided::match_guided(
                 features,
                 &candidates,
-                &self.map.camera,
+                &self.camera,
                 &prior,
                 radius,
                 self.cfg.localize.refine.min_depth_mm,
@@ -305,14 +331,8 @@ impl Localizer {
 
         let t = Instant::now();
         let (points, pixels) = crate::map::correspondences(&matches, features, &candidates);
-        let result = localize_pose(
-            &prior,
-            &points,
-            &pixels,
-            &self.map.camera,
-            &self.cfg.localize,
-        )
-        .map_err(|e| LocalizeError::Config(format!("pose refinement input: {e}")))?;
+        let result = localize_pose(&prior, &points, &pixels, &self.camera, &self.cfg.localize)
+            .map_err(|e| LocalizeError::Config(format!("pose refinement input: {e}")))?;
         times.refine_ms = ms(t);
         let (inliers, rms) = result
             .estimate
@@ -343,6 +363,7 @@ impl Localizer {
             let c = confirm(
                 features,
                 &self.map,
+                &self.camera,
                 near,
                 &t_wc,
                 &self.cfg.matcher,
@@ -633,7 +654,7 @@ impl Localizer {
             return trusted;
         }
         let floor = self.cfg.localize.validity.min_inliers;
-        let c = self.cfg.confirm.for_camera(&self.map.camera, floor);
+        let c = self.cfg.confirm.for_camera(&self.camera, floor);
         trusted.max(c.multi_start_below)
     }
 

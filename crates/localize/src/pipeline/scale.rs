@@ -53,7 +53,7 @@ impl Localizer {
             .iter()
             .map(|p| Point2::new(f64::from(p[0]), f64::from(p[1])))
             .collect();
-        let scaled = scale.refine(&t_wc, &r.inlier_points, &pixels, &self.map.camera, prior);
+        let scaled = scale.refine(&t_wc, &r.inlier_points, &pixels, &self.camera, prior);
         if let Some(s) = &scaled {
             let e = &s.estimate;
             r.t_wc = Some(e.t_wc);

@@ -194,6 +194,10 @@ pub struct ScopeChange {
     pub motion_blur_samples: usize,
     /// Defocus: standard deviation of a Gaussian blur of the test frames, pixels (0 = none).
     pub defocus_px: f64,
+    /// The test scope's horizontal field of view minus the map scope's, degrees (0: the same
+    /// optics). The test pass is rendered with it at the same image size, and its camera is
+    /// stored as the test sequence's own (`test/camera.toml`).
+    pub hfov_change_deg: f64,
 }
 
 impl Default for ScopeChange {
@@ -201,6 +205,7 @@ impl Default for ScopeChange {
         ScopeChange {
             motion_blur_samples: 0,
             defocus_px: 0.0,
+            hfov_change_deg: 0.0,
         }
     }
 }
@@ -208,7 +213,7 @@ impl Default for ScopeChange {
 impl ScopeChange {
     /// Whether the test scope sees as the map pass's does.
     pub fn is_none(&self) -> bool {
-        self.motion_blur_samples == 0 && self.defocus_px == 0.0
+        self.motion_blur_samples == 0 && self.defocus_px == 0.0 && self.hfov_change_deg == 0.0
     }
 }
 
@@ -280,6 +285,7 @@ impl ChangeConfig {
                     ScopeChange {
                         motion_blur_samples: p([0.0, 3.0, 5.0]) as usize,
                         defocus_px: p([0.3, 0.7, 1.2]),
+                        hfov_change_deg: p([5.0, 10.0, 20.0]),
                     },
                 )
             }
@@ -385,6 +391,11 @@ impl ChangeConfig {
             "scope.defocus_px",
             self.scope.defocus_px,
             (0.0..=20.0).contains(&self.scope.defocus_px),
+        )?;
+        check(
+            "scope.hfov_change_deg",
+            self.scope.hfov_change_deg,
+            (-60.0..=60.0).contains(&self.scope.hfov_change_deg),
         )?;
         Ok(())
     }
