@@ -602,6 +602,28 @@ fn catalogue() -> Vec<Case> {
                 localize(&fx.model, &data.join("test"), d)
             },
         ),
+        case(
+            "test pass's own camera of another image size (localize)",
+            &["test/camera.toml", "a 320x240 camera", "expected the dataset's image size, 160x120"],
+            |fx, d| {
+                let data = data_copy(fx, d);
+                write(
+                    &data.join("test/camera.toml"),
+                    "[camera]\nwidth = 320\nheight = 240\nfx = 160.0\nfy = 160.0\ncx = 159.5\ncy = 119.5\n",
+                );
+                localize(&fx.model, &data.join("test"), d)
+            },
+        ),
+        case(
+            "camera file without a [camera] table (localize --camera)",
+            &["scope.toml", "no [camera] table", "fx, fy, cx, cy"],
+            |fx, d| {
+                let file = write(&d.join("scope.toml"), "fx = 80.0\n");
+                let mut a = localize(&fx.model, &fx.data.join("test"), d);
+                a.extend(["--camera".to_string(), s(&file)]);
+                a
+            },
+        ),
         // ---- model folders ----
         case(
             "model folder from another dataset (localize)",
