@@ -109,9 +109,11 @@ impl ChangedPass {
             (ch.scope.motion_blur_samples > 0).then_some(ch.scope.motion_blur_samples);
         if !ch.scope.is_none() {
             notes.push(format!(
-                "test scope: motion blur of {} sub-frames, defocus σ {:.1} px",
+                "test scope: motion blur of {} sub-frames, defocus σ {:.1} px, field of view {:+.1}° \
+                 (its camera in test/camera.toml)",
                 motion_blur_samples.map_or("the map pass's".to_string(), |n| n.to_string()),
-                ch.scope.defocus_px
+                ch.scope.defocus_px,
+                ch.scope.hfov_change_deg
             ));
         }
         Ok(ChangedPass {
