@@ -109,11 +109,17 @@ impl ChangedPass {
             (ch.scope.motion_blur_samples > 0).then_some(ch.scope.motion_blur_samples);
         if !ch.scope.is_none() {
             notes.push(format!(
-                "test scope: motion blur of {} sub-frames, defocus σ {:.1} px, field of view {:+.1}° \
-                 (its camera in test/camera.toml)",
+                "test scope: motion blur of {} sub-frames, defocus σ {:.1} px, {}",
                 motion_blur_samples.map_or("the map pass's".to_string(), |n| n.to_string()),
                 ch.scope.defocus_px,
-                ch.scope.hfov_change_deg
+                if ch.scope.hfov_change_deg == 0.0 {
+                    "the map scope's field of view".to_string()
+                } else {
+                    format!(
+                        "field of view {:+.1}° (its camera in test/camera.toml)",
+                        ch.scope.hfov_change_deg
+                    )
+                }
             ));
         }
         Ok(ChangedPass {
