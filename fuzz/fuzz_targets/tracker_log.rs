@@ -9,7 +9,10 @@ use libfuzzer_sys::fuzz_target;
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
-    let cfg = TrackerLogConfig { units: Units::Mm };
+    let cfg = TrackerLogConfig {
+        units: Units::Mm,
+        rate_hz: Some(30.0),
+    };
     let Ok(log) = parse_pose_log(Path::new("tracker.csv"), data.to_vec(), &cfg) else {
         return;
     };

@@ -113,6 +113,7 @@ def import_video(
     max_fps: float | None = ...,
     size: str | None = ...,
     test: StrPath | None = ...,
+    log_rate_hz: float | None = ...,
     test_poses: StrPath | None = ...,
     seq: str = ...,
     name: str | None = ...,
@@ -125,7 +126,10 @@ def import_video(
     Options (``endoloc import video``'s, ``-`` as ``_``):
 
     - ``out``: Output dataset folder.
-    - ``poses``: The pass's pose log: a tracker CSV with a header, or TUM (required).
+    - ``poses``: The pass's pose log: a tracker CSV with a header, TUM, or C3VD's
+      ``pose.txt`` (required).
+    - ``log_rate_hz``: The rate of a log without time stamps (C3VD's ``pose.txt``), Hz;
+      default the video's frame rate.
     - ``camera``: ``W,H,FX,FY,CX,CY``: the video carries no intrinsics (required).
     - ``units``: Length unit of the pose log (default mm).
     - ``time_offset``: Log time = video time + this many seconds, or ``"auto"``.

@@ -604,7 +604,11 @@ fn catalogue() -> Vec<Case> {
         ),
         case(
             "test pass's own camera of another image size (localize)",
-            &["test/camera.toml", "a 320x240 camera", "expected the dataset's image size, 160x120"],
+            &[
+                "test/camera.toml",
+                "a 320x240 camera",
+                "expected the dataset's image size, 160x120",
+            ],
             |fx, d| {
                 let data = data_copy(fx, d);
                 write(

@@ -47,7 +47,7 @@ pub enum ImportFormat {
     Endoslam,
     /// A video file (MP4/H.264, MKV, AVI/MJPEG, MOV: whatever FFmpeg decodes; `ffmpeg` and
     /// `ffprobe` must be installed) with the pass's pose log (`poses`: a tracker CSV with a
-    /// header, or TUM; `units`, default mm), on the log's own clock (`time_offset`, or
+    /// header, TUM, or C3VD's pose.txt at `log_rate_hz`; `units`, default mm), on the log's own clock (`time_offset`, or
     /// `auto`: found from the images), resampled at each frame's time from the container;
     /// frames without a pose within `max_gap_ms` are left out and listed. The camera
     /// (`camera`) is required: a video carries no intrinsics.
@@ -132,6 +132,10 @@ pub struct ImportJob {
     /// else in SRC). Video: the pass's pose log (required).
     #[cfg_attr(feature = "cli", arg(long))]
     pub poses: Option<PathBuf>,
+    /// Video: the rate of a pose log without time stamps (C3VD's pose.txt, one camera pose
+    /// per frame), Hz; line k is taken at k / rate. Default: the video's frame rate.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "HZ"))]
+    pub log_rate_hz: Option<f64>,
     /// Video: the pose log of the `test` video.
     #[cfg_attr(feature = "cli", arg(long, requires = "test"))]
     pub test_poses: Option<PathBuf>,
@@ -191,6 +195,7 @@ impl Default for ImportJob {
             sequence: None,
             units: None,
             poses: None,
+            log_rate_hz: None,
             test_poses: None,
             time_offset: "0".into(),
             max_gap_ms: 50.0,
@@ -449,7 +454,10 @@ impl ImportJob {
                     if name == "test" && self.test.is_some() { "test_poses" } else { "poses" }
                 )
             })?;
-            let log = read_pose_log(poses, &TrackerLogConfig { units })?;
+            let rate_hz = self
+                .log_rate_hz
+                .or_else(|| endoloc_data::import::video::frame_rate(video));
+            let log = read_pose_log(poses, &TrackerLogConfig { units, rate_hz })?;
             let cfg = VideoConfig {
                 camera,
                 log,

@@ -94,7 +94,10 @@ fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video
     let log = parse_pose_log(
         std::path::Path::new("tracker.csv"),
         csv.into_bytes(),
-        &TrackerLogConfig { units: Units::Mm },
+        &TrackerLogConfig {
+            units: Units::Mm,
+            rate_hz: None,
+        },
     )
     .unwrap();
 
@@ -310,6 +313,42 @@ fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video
         .filter(|i| !unposed.contains(i))
         .count();
     assert_eq!(kept.len(), every_other, "30 fps kept at 15");
+
+    // C3VD's pose.txt as the log (one camera pose per frame, column-major 4×4, no time
+    // stamps): taken at the video's frame rate, each frame gets its own pose.
+    let c3vd: String = seq
+        .poses
+        .iter()
+        .map(|p| {
+            let m = p.pose.to_homogeneous();
+            let v: Vec<String> = (0..16).map(|i| format!("{}", m[(i % 4, i / 4)])).collect();
+            v.join(",") + "\n"
+        })
+        .collect();
+    std::fs::write(root.join("pose.txt"), c3vd).unwrap();
+    let from_c3vd = ImportJob {
+        format: ImportFormat::Video,
+        src: root.join("pass.mp4"),
+        out: root.join("c3vd-log"),
+        poses: Some(root.join("pose.txt")),
+        camera: Some(camera.clone()),
+        ..ImportJob::default()
+    }
+    .run(&Silent)
+    .unwrap();
+    let imported = endoloc_data::Dataset::open(&from_c3vd.summary.dir)
+        .unwrap()
+        .sequence("train")
+        .unwrap();
+    assert_eq!(imported.len(), seq.len());
+    for (p, truth) in imported.poses.iter().zip(&seq.poses) {
+        let err = (p.pose.translation.vector - truth.pose.translation.vector).norm();
+        assert!(
+            err < 1e-3,
+            "frame at {} s is {err:.2e} mm off",
+            p.timestamp_s
+        );
+    }
 
     // Damaged videos are refused, naming the file, and nothing is written: truncated, and a
     // run of corrupt bytes in the middle.

@@ -17,6 +17,10 @@
 //!     or NaN.
 //! - **TUM** (`t x y z qx qy qz qw`, space separated, `#` comments): chosen when the first
 //!   line that is not a comment is eight numbers.
+//! - **C3VD's `pose.txt`** (16 comma-separated values per line, a column-major 4×4
+//!   camera-to-world transform, one line per frame, no time stamps): chosen when the first
+//!   line that is not blank is sixteen numbers; line `k` is taken at `k / rate`
+//!   ([`TrackerLogConfig::rate_hz`], the recording's frame rate).
 //!
 //! The pose of a sample is that of the *sensor* in the tracker's frame (`T_ws`); the camera's
 //! is `T_ws · T_sc` with the hand-eye transform `T_sc` ([`ResampleConfig::sensor_to_camera`]).
@@ -60,11 +64,17 @@ const PLAUSIBLE_SPEED_MM_S: (f64, f64) = (0.1, 2000.0);
 pub struct TrackerLogConfig {
     /// Length unit of the positions.
     pub units: Units,
+    /// The sample rate of a log without time stamps (C3VD's `pose.txt`: one pose per frame),
+    /// Hz; sample `k` is at `k / rate_hz` s. Required for such a log, unused otherwise.
+    pub rate_hz: Option<f64>,
 }
 
 impl Default for TrackerLogConfig {
     fn default() -> Self {
-        TrackerLogConfig { units: Units::Mm }
+        TrackerLogConfig {
+            units: Units::Mm,
+            rate_hz: None,
+        }
     }
 }
 
@@ -129,6 +139,8 @@ pub fn parse_pose_log(
     let text = crate::fsutil::text_from_bytes(path, bytes)?;
     let samples = if looks_like_tum(&text) {
         parse_tum_log(path, &text, cfg)?
+    } else if looks_like_c3vd(&text) {
+        parse_c3vd_log(path, &text, cfg)?
     } else {
         parse_csv_log(path, &text, cfg)?
     };
@@ -171,6 +183,61 @@ fn looks_like_tum(text: &str) -> bool {
             let f: Vec<&str> = l.split_whitespace().collect();
             f.len() == 8 && f.iter().all(|v| v.parse::<f64>().is_ok())
         })
+}
+
+/// Whether the first line that is not blank or a comment is sixteen comma-separated numbers
+/// (C3VD's `pose.txt`).
+fn looks_like_c3vd(text: &str) -> bool {
+    text.lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .is_some_and(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            f.len() == 16 && f.iter().all(|v| v.trim().parse::<f64>().is_ok())
+        })
+}
+
+/// C3VD's `pose.txt` as a log: the camera's pose `T_wc` per line, line `k` (blank lines
+/// skipped) at `k / rate_hz`.
+fn parse_c3vd_log(
+    path: &Path,
+    text: &str,
+    cfg: &TrackerLogConfig,
+) -> Result<Vec<PoseSample>, DataError> {
+    let rate = match cfg.rate_hz {
+        Some(r) if r.is_finite() && r > 0.0 => r,
+        Some(r) => {
+            return Err(DataError::invalid(
+                path,
+                format!("log rate {r} Hz; expected a value > 0"),
+            ));
+        }
+        None => {
+            return Err(DataError::invalid(
+                path,
+                "a C3VD pose file (one 4x4 transform per line) has no time stamps; give its \
+                 rate in Hz, the recording's frame rate (`log_rate_hz`)",
+            ));
+        }
+    };
+    let mut out = Vec::new();
+    for (i, l) in text.lines().enumerate() {
+        let l = l.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let pose = super::c3vd::parse_pose_line(l, path, i + 1)?;
+        let scaled = Pose::from_parts(
+            Translation3::from(pose.translation.vector * cfg.units.mm_per_unit()),
+            pose.rotation,
+        );
+        out.push(PoseSample {
+            time_s: out.len() as f64 / rate,
+            pose: Some(scaled),
+            line: i + 1,
+        });
+    }
+    Ok(out)
 }
 
 fn parse_tum_log(
@@ -497,10 +564,13 @@ fn sensor_pose_at(valid: &[(f64, Pose)], t: f64, max_gap_s: f64) -> Option<Pose>
     if !t.is_finite() {
         return None;
     }
-    // First sample at or after t.
-    let after = valid.partition_point(|(ts, _)| *ts < t);
+    // First sample at or after t, where a sample within a microsecond of t is at t: frame
+    // times come as decimals rounded to the microsecond (ffprobe), and a log of one pose per
+    // frame (C3VD's) must give its last frame its own pose, not none.
+    const SAME_TIME_S: f64 = 1e-6;
+    let after = valid.partition_point(|(ts, _)| *ts < t - SAME_TIME_S);
     let (tb, pb) = *valid.get(after)?;
-    if tb == t {
+    if (tb - t).abs() <= SAME_TIME_S {
         return Some(pb);
     }
     let (ta, pa) = *valid.get(after.checked_sub(1)?)?;
@@ -734,8 +804,59 @@ mod tests {
         parse_pose_log(
             Path::new("log.csv"),
             text.as_bytes().to_vec(),
-            &TrackerLogConfig { units },
+            &TrackerLogConfig {
+                units,
+                rate_hz: None,
+            },
         )
+    }
+
+    #[test]
+    fn a_c3vd_pose_file_is_a_log_at_the_frame_rate() {
+        // Two frames: the identity, then 5 mm along x turned 90° about z (column-major).
+        let text = "1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1\n\n0,1,0,0,-1,0,0,0,0,0,1,0,5,0,0,1\n";
+        let path = Path::new("pose.txt");
+        let read = |rate_hz| {
+            parse_pose_log(
+                path,
+                text.as_bytes().to_vec(),
+                &TrackerLogConfig {
+                    units: Units::Mm,
+                    rate_hz,
+                },
+            )
+        };
+        let log = read(Some(30.0)).unwrap();
+        let times: Vec<f64> = log.samples.iter().map(|s| s.time_s).collect();
+        assert_eq!(times, [0.0, 1.0 / 30.0]);
+        assert_eq!(log.samples[1].line, 3);
+        let second = log.samples[1].pose.unwrap();
+        assert_eq!(
+            second,
+            super::super::c3vd::parse_pose_line(text.lines().nth(2).unwrap(), path, 3).unwrap()
+        );
+        assert!((second.translation.vector - Vector3::new(5.0, 0.0, 0.0)).norm() < 1e-12);
+        let e = read(None).unwrap_err().to_string();
+        assert!(
+            e.contains("pose.txt") && e.contains("no time stamps"),
+            "{e}"
+        );
+        // A broken line of such a file names its line.
+        let bad = "1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1\n1,0,0\n";
+        let e = parse_pose_log(
+            path,
+            bad.as_bytes().to_vec(),
+            &TrackerLogConfig {
+                units: Units::Mm,
+                rate_hz: Some(30.0),
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("pose.txt:2") && e.contains("16 comma-separated"),
+            "{e}"
+        );
     }
 
     /// A log of a sensor moving along x at 20 mm/s and turning about z, sampled at 100 Hz.

@@ -197,6 +197,18 @@ pub fn frame_count_hint(video: &Path) -> Option<usize> {
         .ok()
 }
 
+/// The mean frame rate of the first video stream as its container states it (`avg_frame_rate`,
+/// frames per second); `None` when the container does not say (or `ffprobe` fails).
+pub fn frame_rate(video: &Path) -> Option<f64> {
+    let text = probe(video, "stream=avg_frame_rate").ok()?;
+    let text = text.trim().trim_end_matches(',');
+    let rate = match text.split_once('/') {
+        Some((n, d)) => n.trim().parse::<f64>().ok()? / d.trim().parse::<f64>().ok()?,
+        None => text.parse().ok()?,
+    };
+    (rate.is_finite() && rate > 0.0).then_some(rate)
+}
+
 /// The size `(width, height)` of the first video stream's frames, pixels.
 ///
 /// # Errors
