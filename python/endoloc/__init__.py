@@ -9,7 +9,7 @@ The same library as the ``endoloc`` command line, in process:
 - ``VideoFrames(path, size)``: a video file's frames as FFmpeg decodes them, to feed a
   ``Localizer`` (``localize(video=..., live=True)`` does it as a job);
 - the jobs — ``simulate``, ``import_video``, ``train``, ``map``, ``localize``, ``eval``, ``classify``, ``view``,
-  ``features``, ``pretrain``, ``demo``, ``run`` and ``experiment.benchmark`` / ``compare`` / ``zones`` /
+  ``features``, ``pretrain``, ``demo``, ``run`` and ``experiment.benchmark`` / ``changes`` / ``compare`` / ``zones`` /
   ``expert`` / ``perturb`` — with the command line's options as keyword arguments
   (``--images-per-zone 8`` is ``images_per_zone=8``);
 - ``read_tum`` / ``write_tum`` for trajectories (readable by evo).

@@ -6,12 +6,18 @@ from __future__ import annotations
 
 from ._jobs import job
 
-__all__ = ["benchmark", "compare", "expert", "perturb", "zones"]
+__all__ = ["benchmark", "changes", "compare", "expert", "perturb", "zones"]
 
 
 def benchmark(*, progress=None, **options):
     """The whole chain over several colons; each method's mean ± 95 % interval across them."""
     return job("experiment.benchmark", progress, options)
+
+
+def changes(*, progress=None, **options):
+    """Each factor of a colon that changes between the passes, alone at each severity, over
+    several colons: where endoloc stops holding."""
+    return job("experiment.changes", progress, options)
 
 
 def compare(*, progress=None, **options):

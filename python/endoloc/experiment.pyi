@@ -60,6 +60,55 @@ def benchmark(
     """
     ...
 
+def changes(
+    *,
+    out: StrPath = ...,
+    preset: str = ...,
+    seeds: Seq[int] = ...,
+    gca: Seq[StrPath] = ...,
+    inflation: float | None = ...,
+    factors: Seq[str] = ...,
+    severities: Seq[Literal["mild", "moderate", "severe"]] = ...,
+    train_frames: int | None = ...,
+    test_frames: int | None = ...,
+    zones: int | str = ...,
+    pretrained: str = ...,
+    seed: int = ...,
+    keep_data: bool = ...,
+    colon: str | None = ...,
+    print_jobs: bool = ...,
+    merge: bool = ...,
+    force: bool = ...,
+    progress: ProgressArg = None,
+) -> Report:
+    """Each factor of a colon that changes between the passes, alone at each severity, over
+    several colons: where endoloc stops holding.
+
+    Options (the command's, ``-`` as ``_``):
+
+    - ``out``: Output folder.
+    - ``preset``: Simulator preset of every colon (default ``small``).
+    - ``seeds``: Procedural colons: simulator seeds (default 1 to 5).
+    - ``gca``: CT colons: GCA model folders.
+    - ``inflation``: Lumen inflation of the CT colons.
+    - ``factors``: Factors, each alone (default all): shift, insufflation, deform,
+      exposure, colour, light, specular, texture, residue, bubbles, blur, fov, and ``all``
+      (every factor at once).
+    - ``severities``: Severities of each factor (default mild, moderate, severe).
+    - ``train_frames``: Frames of each training pass (default: the preset's).
+    - ``test_frames``: Frames of each test pass (default: the preset's).
+    - ``zones``: Zones: a count (uniform), or `expert` / `expert:N` (anatomical).
+    - ``pretrained``: Start weights of the zone network (`builtin-joint`); ``none``: train
+      from scratch on each colon.
+    - ``seed``: Seed of every training.
+    - ``keep_data``: Keep each condition's dataset (deleted once its figures are written).
+    - ``colon``: Run only this colon (`seed-N` or `ct-<folder>`).
+    - ``print_jobs``: Print one command per colon and the merge command, and stop.
+    - ``merge``: Run nothing: write the tables from the finished conditions.
+    - ``force``: Use an output folder that holds something else.
+    """
+    ...
+
 def compare(
     *,
     data: StrPath = ...,

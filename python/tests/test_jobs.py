@@ -26,6 +26,7 @@ JOBS = {
     "pretrain": "pretrain",
     "demo": "demo",
     "experiment.benchmark": "experiment benchmark",
+    "experiment.changes": "experiment changes",
     "experiment.compare": "experiment compare",
     "experiment.zones": "experiment zones",
     "experiment.expert": "experiment expert",

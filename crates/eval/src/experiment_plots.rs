@@ -466,6 +466,129 @@ fn curve_panel(
     Ok(())
 }
 
+/// One line of [`plot_series`]: a name (its legend entry) and its points `(x, y)`; a `None`
+/// y leaves a gap.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Legend entry.
+    pub name: String,
+    /// Points in x order.
+    pub points: Vec<(f64, Option<f64>)>,
+}
+
+/// One panel of [`plot_series`]: its title, y unit, y range and lines.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeriesPanel {
+    /// Panel title.
+    pub title: String,
+    /// The y axis' description.
+    pub unit: String,
+    /// The y range drawn (values beyond it are clipped to it).
+    pub y: (f64, f64),
+    /// The lines, one colour each.
+    pub series: Vec<Series>,
+}
+
+/// Draws panels of lines with markers against a common x (e.g. one line per factor against
+/// severity), one above the other, to `path`; `x_ticks` names the x positions 0, 1, 2, ….
+///
+/// # Errors
+/// [`EvalError::Plot`] if drawing or encoding fails; [`EvalError::Io`] if writing fails.
+pub fn plot_series(
+    panels: &[SeriesPanel],
+    x_ticks: &[&str],
+    x_desc: &str,
+    path: &Path,
+    config: &PlotConfig,
+) -> Result<(), EvalError> {
+    let ticks: Vec<String> = x_ticks.iter().map(|s| s.to_string()).collect();
+    render_png(path, config, |root, text| {
+        let areas = root.split_evenly((panels.len().max(1), 1));
+        for (area, panel) in areas.iter().zip(panels) {
+            series_panel(area, text, panel, &ticks, x_desc)?;
+        }
+        Ok(())
+    })
+}
+
+fn series_panel(
+    area: &Area<'_>,
+    text: bool,
+    panel: &SeriesPanel,
+    ticks: &[String],
+    x_desc: &str,
+) -> Result<(), String> {
+    let x = (-0.3, (ticks.len().max(2) - 1) as f64 + 0.3);
+    let y = panel.y;
+    let mut chart = panel_chart(area, text, &panel.title, x, y)?;
+    {
+        let mut mesh = chart.configure_mesh();
+        mesh.light_line_style(RGBColor(235, 235, 235))
+            .x_labels(ticks.len().max(2));
+        if text {
+            let name = |v: &f64| {
+                let k = v.round();
+                if (v - k).abs() < 1e-6 && k >= 0.0 {
+                    ticks.get(k as usize).cloned().unwrap_or_default()
+                } else {
+                    String::new()
+                }
+            };
+            mesh.x_desc(x_desc)
+                .y_desc(panel.unit.as_str())
+                .x_label_formatter(&name)
+                .y_label_formatter(&tick_label)
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(|e| e.to_string())?;
+        } else {
+            mesh.x_labels(0)
+                .y_labels(0)
+                .draw()
+                .map_err(|e| e.to_string())?;
+            border(&mut chart, x, y)?;
+        }
+    }
+    for (k, s) in panel.series.iter().enumerate() {
+        let color = Palette99::pick(k).to_rgba();
+        let clip = |v: f64| v.clamp(y.0, y.1);
+        // Gaps split a line; each run of points is drawn on its own.
+        let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+        for &(px, py) in &s.points {
+            match py.filter(|v| v.is_finite()) {
+                Some(v) => runs.last_mut().expect("one run").push((px, clip(v))),
+                None => runs.push(Vec::new()),
+            }
+        }
+        let mut first = true;
+        for run in runs.iter().filter(|r| !r.is_empty()) {
+            chart
+                .draw_series(run.iter().map(|&p| Circle::new(p, 3, color.filled())))
+                .map_err(|e| e.to_string())?;
+            let line = chart
+                .draw_series(LineSeries::new(run.clone(), color.stroke_width(2)))
+                .map_err(|e| e.to_string())?;
+            if first && text {
+                line.label(s.name.as_str()).legend(move |(lx, ly)| {
+                    PathElement::new(vec![(lx, ly), (lx + 14, ly)], color.stroke_width(2))
+                });
+            }
+            first = false;
+        }
+    }
+    if text && !panel.series.is_empty() {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 11))
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -128,9 +128,9 @@ impl Default for BenchmarkJob {
 pub struct Colon {
     /// Folder name: `seed-N`, `dev-seed-N` or `ct-<model folder>`.
     pub name: String,
-    seed: u64,
-    gca: Option<PathBuf>,
-    development: bool,
+    pub(super) seed: u64,
+    pub(super) gca: Option<PathBuf>,
+    pub(super) development: bool,
 }
 
 /// One colon's figures: every method's row.

@@ -507,6 +507,57 @@ pub struct MethodRow {
     pub refined_mean_orientation_deg: Option<f64>,
     /// Median time per frame, ms.
     pub ms_per_frame: f64,
+    /// Median position error over the `refined` frames only (our method), mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refined_median_position_mm: Option<f64>,
+    /// `refined` frames more than 5 mm from the truth (our method): wrong poses flagged as
+    /// right.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refined_over_5mm: Option<usize>,
+    /// Median error along the colon over the localized frames, mm of mid-line (when the
+    /// dataset has a mid-line).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub median_along_mm: Option<f64>,
+    /// Fraction of frames whose zone (`frames.csv`) is within one of the true zone (our
+    /// method, when the true zones are known).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zone_within_one: Option<f64>,
+}
+
+/// What is known of the test pass beyond its poses, for [`write_and_evaluate`]: the colon's
+/// mid-line (the error along the colon) and each frame's true zone (zone accuracy).
+#[derive(Default)]
+pub(super) struct Truth {
+    pub midline: Option<endoloc_eval::Midline>,
+    pub zones: Option<Vec<endoloc_eval::ZoneLabel>>,
+}
+
+impl Truth {
+    /// The mid-line of the dataset in `dir` (when it has one) and the true zone of every test
+    /// frame under `classifier`'s zones (the zone its anatomical pose lies in).
+    pub fn of(dir: &Path, test: &Sequence, classifier: &ZoneClassifier) -> Result<Self> {
+        let midline = match Dataset::open(dir)?.midline_path() {
+            Some(p) => Some(
+                endoloc_eval::Midline::from_file(&p)
+                    .with_context(|| format!("reading the mid-line of {}", dir.display()))?,
+            ),
+            None => None,
+        };
+        let zones = test
+            .poses
+            .iter()
+            .enumerate()
+            .filter_map(|(frame, p)| {
+                classifier
+                    .truth_zone(&p.pose)
+                    .map(|zone| endoloc_eval::ZoneLabel { frame, zone })
+            })
+            .collect();
+        Ok(Truth {
+            midline,
+            zones: Some(zones),
+        })
+    }
 }
 
 /// Writes `dir/trajectory.txt` (and `frames.csv` for our method), evaluates against the
@@ -515,6 +566,7 @@ pub(super) fn write_and_evaluate(
     dir: &Path,
     seq: &Sequence,
     out: &MethodOutput,
+    truth: &Truth,
 ) -> Result<MethodRow> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let est: Vec<StampedPose> = out
@@ -552,6 +604,10 @@ pub(super) fn write_and_evaluate(
         refined_mean_position_mm: None,
         refined_mean_orientation_deg: None,
         ms_per_frame: out.ms_per_frame,
+        refined_median_position_mm: None,
+        refined_over_5mm: None,
+        median_along_mm: None,
+        zone_within_one: None,
     };
     if est.is_empty() {
         return Ok(row);
@@ -561,13 +617,25 @@ pub(super) fn write_and_evaluate(
             gt: &seq.poses,
             est: &est,
             frames: frames.as_deref(),
-            gt_zones: None,
-            midline: None,
+            gt_zones: truth.zones.as_deref().filter(|_| frames.is_some()),
+            midline: truth.midline.as_ref(),
         },
         &EvalConfig::default(),
     )
     .with_context(|| format!("evaluating {}", out.name))?;
     let m = &evaluation.metrics;
+    row.median_along_mm = m.along_colon_mm.as_ref().map(|a| a.median);
+    row.zone_within_one = m.zone_within_one;
+    if frames.is_some() {
+        let mut over = 0;
+        evaluation.for_each_frame(|f| {
+            if f.status == Some(Status::Refined) && f.position_mm.is_some_and(|e| e > 5.0) {
+                over += 1;
+            }
+            Ok(())
+        })?;
+        row.refined_over_5mm = Some(over);
+    }
     row.mean_position_mm = Some(m.position_mm.mean);
     row.median_position_mm = Some(m.position_mm.median);
     row.mean_orientation_deg = Some(m.orientation_deg.mean);
@@ -575,6 +643,7 @@ pub(super) fn write_and_evaluate(
     if let Some(r) = m.by_status.get("refined") {
         row.refined_mean_position_mm = Some(r.position_mm.mean);
         row.refined_mean_orientation_deg = Some(r.orientation_deg.mean);
+        row.refined_median_position_mm = Some(r.position_mm.median);
     }
     endoloc_eval::write_results(
         &evaluation,

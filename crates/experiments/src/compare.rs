@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::common::{
     self, Data, DataArgs, EndolocRun, ExperimentReport, FeatureCache, MethodOutput, MethodRow,
-    TrainSpec, ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc,
+    TrainSpec, Truth, ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc,
     write_and_evaluate,
 };
 use endoloc_jobs::baselines::{self, Regressor};
@@ -245,6 +245,7 @@ impl CompareJob {
         ensure_map(&model, &data, args.threshold, &[], progress)?;
         let classifier = ZoneClassifier::load(&model)?;
         classifier.check_compatible(&data_camera(&data)?)?;
+        let truth = Truth::of(&data.dir, &data.test, &classifier)?;
 
         let mut ctx = Ctx {
             data: &data,
@@ -271,7 +272,7 @@ impl CompareJob {
             }
             note!(progress, "\n== {}: {}", m.name(), m.description());
             let output = ctx.run(m)?;
-            let row = write_and_evaluate(&dir, &data.test, &output)?;
+            let row = write_and_evaluate(&dir, &data.test, &output, &truth)?;
             common::write_text(&row_file, &serde_json::to_string_pretty(&row)?)?;
             print_row(&row, progress);
             rows.push(row);

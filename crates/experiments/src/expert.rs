@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::common::{
     self, Data, DataArgs, EndolocRun, ExperimentReport, FeatureCache, MethodOutput, MethodRow,
-    TrainSpec, ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc,
+    TrainSpec, Truth, ZoneChoice, ensure_map, ensure_model, predict_zones, run_endoloc,
     write_and_evaluate,
 };
 use endoloc_jobs::progress::Progress;
@@ -166,7 +166,12 @@ impl ExpertJob {
                 progress,
             )?;
             let out = MethodOutput::from_results(name, description, results);
-            let row = write_and_evaluate(&args.out.join("runs").join(name), &data.test, &out)?;
+            let row = write_and_evaluate(
+                &args.out.join("runs").join(name),
+                &data.test,
+                &out,
+                &Truth::default(),
+            )?;
             rows.push(row);
         }
         let table = common::markdown_table(&rows);

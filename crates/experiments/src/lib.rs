@@ -5,6 +5,8 @@
 //! [`endoloc_jobs::Progress`] sink.
 //!
 //! - [`BenchmarkJob`] — the whole chain over several colons, mean ± 95 % confidence interval;
+//! - [`ChangesJob`] — every factor of a colon that changes between the passes, alone at each
+//!   severity, over several colons: where endoloc stops holding;
 //! - [`CompareJob`] — every method on the same data (the paper's Table I);
 //! - [`ZoneSweepJob`] — the Monte-Carlo zone-count sweep (the paper's Fig. 4), resumable;
 //! - [`ExpertJob`] — anatomical zones against uniform ones;
@@ -17,6 +19,7 @@
 #![warn(missing_docs)]
 
 mod benchmark;
+mod changes;
 mod common;
 mod compare;
 mod expert;
@@ -27,6 +30,7 @@ pub use benchmark::{
     BenchmarkJob, BenchmarkReport, ColonRow, Interval, MethodSummary, Seeds, interval, parse_seeds,
     t95,
 };
+pub use changes::{ChangesJob, ChangesReport, Condition, ConditionRow, ConditionSummary, Factor};
 pub use common::{DataArgs as ExperimentData, ExperimentReport, MethodRow};
 pub use compare::{CompareJob, Method as CompareMethod};
 pub use expert::ExpertJob;

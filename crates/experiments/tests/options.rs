@@ -4,7 +4,7 @@
 
 use clap::{ArgAction, Args, Command, FromArgMatches};
 use endoloc_experiments::{
-    BenchmarkJob, CompareJob, ExperimentData, ExpertJob, PerturbJob, ZoneSweepJob,
+    BenchmarkJob, ChangesJob, CompareJob, ExperimentData, ExpertJob, PerturbJob, ZoneSweepJob,
 };
 use endoloc_jobs::{
     ClassifyJob, DatasetJob, DemoJob, EvalJob, FeaturesJob, ImportJob, LiveBenchJob, LocalizeJob,
@@ -165,6 +165,7 @@ fn every_option_of_every_job_is_defined_once_on_the_job() {
     check::<ImportJob>("import", &[]);
     check::<DatasetJob>("dataset", &[nested::<MaskDetectConfig>("detect")]);
     check::<BenchmarkJob>("benchmark", &[]);
+    check::<ChangesJob>("changes", &[]);
     check::<CompareJob>("compare", &data);
     check::<ZoneSweepJob>("zones", &data);
     check::<ExpertJob>("expert", &data);

@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use endoloc_experiments::{BenchmarkJob, CompareJob, ExpertJob, PerturbJob, ZoneSweepJob};
+use endoloc_experiments::{
+    BenchmarkJob, ChangesJob, CompareJob, ExpertJob, PerturbJob, ZoneSweepJob,
+};
 use endoloc_jobs::{
     ClassifyJob, DemoJob, EvalJob, FeaturesJob, ImportJob, LocalizeJob, MapJob, PretrainJob,
     Progress, RunJob, SimulateJob, TrainJob, ViewJob,
@@ -266,6 +268,7 @@ pub fn run_job(
         "pretrain" => go!(PretrainJob, |j: &PretrainJob, _| non_empty(&j.out)),
         "demo" => go!(DemoJob, |j: &DemoJob, _| non_empty(&j.out)),
         "experiment.benchmark" => go!(BenchmarkJob, |j: &BenchmarkJob, _| non_empty(&j.out)),
+        "experiment.changes" => go!(ChangesJob, |j: &ChangesJob, _| non_empty(&j.out)),
         "experiment.compare" => go!(CompareJob, |j: &CompareJob, _| non_empty(&j.out)),
         "experiment.zones" => go!(ZoneSweepJob, |j: &ZoneSweepJob, _| non_empty(&j.out)),
         "experiment.expert" => go!(ExpertJob, |j: &ExpertJob, _| non_empty(&j.out)),

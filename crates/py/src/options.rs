@@ -3,7 +3,7 @@
 //! make. The job runner and `Localizer` both take their options from here.
 
 use endoloc_experiments::{
-    BenchmarkJob, CompareJob, ExperimentData, ExpertJob, PerturbJob, ZoneSweepJob,
+    BenchmarkJob, ChangesJob, CompareJob, ExperimentData, ExpertJob, PerturbJob, ZoneSweepJob,
 };
 use endoloc_jobs::{
     ClassifyJob, DemoJob, EvalJob, FeaturesJob, ImportJob, LocalizeJob, MapJob, PretrainJob,
@@ -27,6 +27,7 @@ pub const JOBS: &[&str] = &[
     "pretrain",
     "demo",
     "experiment.benchmark",
+    "experiment.changes",
     "experiment.compare",
     "experiment.zones",
     "experiment.expert",
@@ -67,6 +68,7 @@ fn command_of(job: &str) -> PyResult<clap::Command> {
         "pretrain" => PretrainJob::augment_args(cmd),
         "demo" => DemoJob::augment_args(cmd),
         "experiment.benchmark" => BenchmarkJob::augment_args(cmd),
+        "experiment.changes" => ChangesJob::augment_args(cmd),
         "experiment.compare" => CompareJob::augment_args(cmd),
         "experiment.zones" => ZoneSweepJob::augment_args(cmd),
         "experiment.expert" => ExpertJob::augment_args(cmd),
