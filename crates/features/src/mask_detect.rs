@@ -7,8 +7,11 @@
 //! 1. takes the per-pixel maximum over the frames, of each frame and of a 3 × 3 box-smoothed
 //!    copy (sensor noise does not light a border pixel, a dark lumen in some frames does not
 //!    darken the wall), and calls a pixel lit when both exceed the threshold;
-//! 2. thresholds it ([`MaskDetectConfig::threshold`]), keeps the largest 4-connected region and
-//!    fills its holes (a lumen that stays dark in every frame is still inside);
+//! 2. thresholds it ([`MaskDetectConfig::threshold`]), opens it — erodes, then dilates, by a
+//!    square of half-width [`MaskDetectConfig::open_px`] — so that thin bright strokes in the
+//!    border (a scope's overlay text, a time stamp, a frame counter) are cut off even where they
+//!    touch the image, keeps the largest 4-connected region and fills its holes (a lumen that
+//!    stays dark in every frame is still inside);
 //! 3. fits two shapes to that region — its bounding rectangle, and a circle (algebraic fit to
 //!    the region's boundary away from the image edge) cut by that rectangle — and keeps the
 //!    shape that agrees best with the region when it agrees to an IoU of at least
@@ -47,6 +50,14 @@ pub struct MaskDetectConfig {
         arg(long, default_value_t = MaskDetectConfig::default().min_shape_iou)
     )]
     pub min_shape_iou: f64,
+    /// Lit strokes narrower than `2 × open_px + 1` pixels (overlay text, a time stamp in the
+    /// border) never count as valid: the lit area is opened by a square of this half-width
+    /// before the region is chosen. 0 = off.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, default_value_t = MaskDetectConfig::default().open_px)
+    )]
+    pub open_px: u32,
 }
 
 impl Default for MaskDetectConfig {
@@ -55,6 +66,7 @@ impl Default for MaskDetectConfig {
             threshold: 20,
             margin_px: 1.0,
             min_shape_iou: 0.97,
+            open_px: 3,
         }
     }
 }
@@ -142,6 +154,7 @@ pub fn detect_mask(
         .zip(&raw_max)
         .map(|(&s, &v)| s > cfg.threshold as u16 && v > cfg.threshold)
         .collect();
+    let lit = open(&lit, w, h, cfg.open_px as usize);
     let region = fill_holes(&largest_component(&lit, w, h), w, h);
     if !region.iter().any(|&v| v) {
         return Err(FeatureError::EmptyMask {
@@ -220,6 +233,46 @@ fn box3(px: &[u8], w: usize, h: usize) -> Vec<u16> {
         }
     }
     out
+}
+
+/// Pixels of `set` in a box of half-width `r` around each pixel (the box clipped to the
+/// image), from an integral image of `set`: `(count, box area)` per pixel.
+fn box_counts(set: &[bool], w: usize, h: usize, r: usize) -> Vec<(u32, u32)> {
+    let mut ii = vec![0u32; (w + 1) * (h + 1)];
+    for y in 0..h {
+        let mut row = 0u32;
+        for x in 0..w {
+            row += u32::from(set[y * w + x]);
+            ii[(y + 1) * (w + 1) + x + 1] = ii[y * (w + 1) + x + 1] + row;
+        }
+    }
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let (x0, y0) = (x.saturating_sub(r), y.saturating_sub(r));
+            let (x1, y1) = ((x + r + 1).min(w), (y + r + 1).min(h));
+            let at = |xx: usize, yy: usize| ii[yy * (w + 1) + xx];
+            let count = at(x1, y1) + at(x0, y0) - at(x0, y1) - at(x1, y0);
+            (count, ((x1 - x0) * (y1 - y0)) as u32)
+        })
+        .collect()
+}
+
+/// Morphological opening of `set` by a square of half-width `r` (erosion, then dilation),
+/// kept inside `set`; the image edge does not erode (the box is clipped to the image).
+fn open(set: &[bool], w: usize, h: usize, r: usize) -> Vec<bool> {
+    if r == 0 {
+        return set.to_vec();
+    }
+    let eroded: Vec<bool> = box_counts(set, w, h, r)
+        .into_iter()
+        .map(|(n, area)| n == area)
+        .collect();
+    box_counts(&eroded, w, h, r)
+        .into_iter()
+        .zip(set)
+        .map(|((n, _), &v)| v && n > 0)
+        .collect()
 }
 
 /// Labels of the 4-connected components of `set` (usize::MAX outside it) and their sizes.
@@ -429,6 +482,89 @@ mod tests {
         let truth = Mask::from_valid(w as usize, h as usize, &truth).unwrap();
         let iou = got.mask.iou(&truth).unwrap();
         assert!(iou >= 0.98, "IoU {iou}");
+    }
+
+    /// A scope's overlay in the black border: a line of "characters" (1–2 px strokes) that
+    /// changes from frame to frame, drawn at `(x, y)`.
+    fn overlay(img: &mut GrayImage, x: u32, y: u32, frame: u32) {
+        for c in 0..8u32 {
+            let glyph = (c * 37 + frame * 11) % 13;
+            for k in 0..7u32 {
+                let (px, py) = (x + c * 6 + (k * glyph) % 4, y + k);
+                if px < img.width() && py < img.height() {
+                    img.put_pixel(px, py, image::Luma([255]));
+                    if glyph % 2 == 0 && px + 1 < img.width() {
+                        img.put_pixel(px + 1, py, image::Luma([255]));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn overlay_text_in_the_border_never_counts_as_valid() {
+        // A field stop with a time stamp in a corner and a counter touching its edge.
+        let (w, h) = (200u32, 160u32);
+        let (mut f, truth) = frames(w, h, 101.0, 79.5, 70.0);
+        for (k, img) in f.iter_mut().enumerate() {
+            overlay(img, 2, 2, k as u32);
+            overlay(img, 80, 150, k as u32);
+        }
+        let exact = MaskDetectConfig {
+            margin_px: 0.0,
+            ..MaskDetectConfig::default()
+        };
+        let got = detect_mask(&f, &exact).unwrap();
+        let truth = Mask::from_valid(w as usize, h as usize, &truth).unwrap();
+        let iou = got.mask.iou(&truth).unwrap();
+        assert!(
+            matches!(got.shape, MaskShape::Circle { .. }) && iou >= 0.98,
+            "{:?}, IoU {iou}",
+            got.shape
+        );
+        for (k, img) in f.iter().enumerate() {
+            for (x, y, p) in img.enumerate_pixels() {
+                if p.0[0] == 255 {
+                    assert!(
+                        !got.mask.is_valid(i64::from(x), i64::from(y)),
+                        "frame {k}: overlay pixel ({x}, {y}) counted valid"
+                    );
+                }
+            }
+        }
+        // A black border with a status line right under the image, touching it.
+        let (w, h) = (120u32, 90u32);
+        let f: Vec<GrayImage> = (0..4u32)
+            .map(|k| {
+                let mut img = GrayImage::from_fn(w, h, |x, y| {
+                    let inside = (10..=109).contains(&x) && (5..=74).contains(&y);
+                    image::Luma([if inside {
+                        50 + ((x + y + k) % 9) as u8 * 10
+                    } else {
+                        2
+                    }])
+                });
+                overlay(&mut img, 12, 75, k);
+                img
+            })
+            .collect();
+        let cfg = MaskDetectConfig {
+            margin_px: 0.0,
+            ..MaskDetectConfig::default()
+        };
+        let got = detect_mask(&f, &cfg).unwrap();
+        assert_eq!(
+            got.shape,
+            MaskShape::Rectangle {
+                x0: 10,
+                y0: 5,
+                x1: 109,
+                y1: 74
+            }
+        );
+        // Without the opening the status line joins the image.
+        let plain = detect_mask(&f, &MaskDetectConfig { open_px: 0, ..cfg }).unwrap();
+        assert_ne!(plain.shape, got.shape);
     }
 
     #[test]

@@ -93,7 +93,9 @@ fn serve(
         .model
         .as_deref()
         .ok_or_else(|| anyhow::anyhow!("a model folder is required (--model)"))?;
-    let camera = job.camera()?;
+    // The frames' camera (another scope's with --camera): the scope drawn with its field of view.
+    let model_camera = job.camera()?;
+    let camera = job.frames_camera(&model_camera)?.unwrap_or(model_camera);
     let title = job
         .video
         .as_deref()
