@@ -850,9 +850,10 @@ fn summarise(c: &Condition, rows: &[ConditionRow]) -> ConditionSummary {
     }
 }
 
-const HEADER: [&str; 10] = [
+const HEADER: [&str; 11] = [
     "change",
     "severity",
+    "colons",
     "live: refined (%)",
     "live: median pos of refined (mm)",
     "live: wrong (% of refined)",
@@ -879,6 +880,7 @@ fn summary_table(summary: &[ConditionSummary]) -> String {
             c.factor
                 .map_or("nothing".to_string(), |f| f.description().to_string()),
             c.severity.name().to_string(),
+            c.colons.to_string(),
             pm(&c.live_refined_pct, 1),
             pm(&c.live_refined_median_mm, 2),
             pm(&c.live_wrong_pct, 1),
