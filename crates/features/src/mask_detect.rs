@@ -493,7 +493,7 @@ mod tests {
                 let (px, py) = (x + c * 6 + (k * glyph) % 4, y + k);
                 if px < img.width() && py < img.height() {
                     img.put_pixel(px, py, image::Luma([255]));
-                    if glyph % 2 == 0 && px + 1 < img.width() {
+                    if glyph.is_multiple_of(2) && px + 1 < img.width() {
                         img.put_pixel(px + 1, py, image::Luma([255]));
                     }
                 }
