@@ -338,6 +338,8 @@ pub struct ConditionSummary {
     pub severity: Severity,
     /// Colons with this condition finished.
     pub colons: usize,
+    /// Their names.
+    pub colon_names: Vec<String>,
     /// Live: refined frames, % of all.
     pub live_refined_pct: Option<Interval>,
     /// Live: median position error of the refined frames, mm.
@@ -578,7 +580,7 @@ impl ChangesJob {
             .map(|c| summarise(c, &rows))
             .filter(|s| s.colons > 0)
             .collect();
-        let table = self.write_outputs(&summary, &missing)?;
+        let table = self.write_outputs(&summary, &rows, &missing)?;
         Ok(ChangesReport {
             summary,
             missing,
@@ -703,7 +705,12 @@ impl ChangesJob {
         Ok((rows, missing))
     }
 
-    fn write_outputs(&self, summary: &[ConditionSummary], missing: &[String]) -> Result<String> {
+    fn write_outputs(
+        &self,
+        summary: &[ConditionSummary],
+        rows: &[ConditionRow],
+        missing: &[String],
+    ) -> Result<String> {
         let table = summary_table(summary);
         let mut md = String::from("# A colon that changes between the passes\n\n");
         md.push_str(&format!(
@@ -731,11 +738,36 @@ impl ChangesJob {
              a limit the unchanged pass itself misses counts only where the condition is clearly \
              worse (5 points fewer refined, 1 point more wrong, twice the median error).\n\n"
         ));
-        for line in breakpoints(summary, &self.severities()) {
+        // Each condition against the unchanged pass of the same colons.
+        let baseline = |s: &ConditionSummary| {
+            let same: Vec<ConditionRow> = rows
+                .iter()
+                .filter(|r| s.colon_names.contains(&r.colon))
+                .cloned()
+                .collect();
+            Some(summarise(&Condition::NONE, &same)).filter(|b| b.colons > 0)
+        };
+        for line in breakpoints(summary, &self.severities(), &baseline) {
             md.push_str(&format!("- {line}\n"));
         }
         if !missing.is_empty() {
-            md.push_str(&format!("\nNot finished: {}.\n", missing.join(", ")));
+            // Per colon: how many conditions are missing.
+            let mut per_colon: Vec<(String, usize)> = Vec::new();
+            for m in missing {
+                let colon = m.split('/').next().unwrap_or(m).to_string();
+                match per_colon.iter_mut().find(|(c, _)| *c == colon) {
+                    Some((_, n)) => *n += 1,
+                    None => per_colon.push((colon, 1)),
+                }
+            }
+            let parts: Vec<String> = per_colon
+                .iter()
+                .map(|(c, n)| format!("{c} ({n} of {})", self.conditions().len()))
+                .collect();
+            md.push_str(&format!(
+                "\nNot finished (conditions missing per colon): {}.\n",
+                parts.join(", ")
+            ));
         }
         md.push_str("\n![changes](changes.png)\n");
         common::write_text(&self.out.join("changes.md"), &md)?;
@@ -839,6 +871,7 @@ fn summarise(c: &Condition, rows: &[ConditionRow]) -> ConditionSummary {
         factor: c.factor,
         severity: c.severity,
         colons: of.len(),
+        colon_names: of.iter().map(|r| r.colon.clone()).collect(),
         live_refined_pct: figure(LIVE, &refined_pct),
         live_refined_median_mm: figure(LIVE, &|r| r.refined_median_position_mm),
         live_wrong_pct: figure(LIVE, &wrong_pct),
@@ -922,8 +955,13 @@ fn fails(s: &ConditionSummary, none: Option<&ConditionSummary>) -> Option<String
     (!why.is_empty()).then(|| why.join(", "))
 }
 
-/// One sentence per factor: the mildest severity at which it stops holding, and why.
-fn breakpoints(summary: &[ConditionSummary], severities: &[Severity]) -> Vec<String> {
+/// One sentence per factor: the mildest severity at which it stops holding, and why, each
+/// condition against `baseline`, the unchanged pass of the same colons.
+fn breakpoints(
+    summary: &[ConditionSummary],
+    severities: &[Severity],
+    baseline: &dyn Fn(&ConditionSummary) -> Option<ConditionSummary>,
+) -> Vec<String> {
     let mut factors: Vec<Factor> = Vec::new();
     for s in summary {
         if let Some(f) = s.factor
@@ -932,7 +970,6 @@ fn breakpoints(summary: &[ConditionSummary], severities: &[Severity]) -> Vec<Str
             factors.push(f);
         }
     }
-    let none = summary.iter().find(|s| s.factor.is_none());
     factors
         .into_iter()
         .map(|f| {
@@ -940,7 +977,7 @@ fn breakpoints(summary: &[ConditionSummary], severities: &[Severity]) -> Vec<Str
                 let s = summary
                     .iter()
                     .find(|s| s.factor == Some(f) && s.severity == *sev)?;
-                fails(s, none).map(|why| (*sev, why))
+                fails(s, baseline(s).as_ref()).map(|why| (*sev, why))
             });
             match first_failure {
                 Some((sev, why)) => format!(
@@ -1025,6 +1062,7 @@ mod tests {
             factor: Some(f),
             severity: sev,
             colons: 5,
+            colon_names: Vec::new(),
             live_refined_pct: interval(&[refined, refined]),
             live_refined_median_mm: interval(&[median, median]),
             live_wrong_pct: interval(&[wrong, wrong]),
@@ -1048,7 +1086,8 @@ mod tests {
             row(Factor::Exposure, Severity::Moderate, 98.0, 0.0, 0.3),
             row(Factor::Exposure, Severity::Severe, 97.0, 0.5, 0.4),
         ];
-        let lines = breakpoints(&summary, &sevs);
+        let base = summary[0].clone();
+        let lines = breakpoints(&summary, &sevs, &|_| Some(base.clone()));
         assert_eq!(lines.len(), 3);
         assert!(
             lines[0].contains("**fov**") && lines[0].contains("holds up to"),
