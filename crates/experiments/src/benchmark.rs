@@ -349,30 +349,19 @@ impl BenchmarkJob {
             self.zones,
             self.seed
         );
-        if self.seeds.is_empty() {
-            c.push_str(" --seeds none");
-        } else {
-            let s: Vec<String> = self.seeds.iter().map(u64::to_string).collect();
-            c.push_str(&format!(" --seeds {}", s.join(",")));
-        }
+        c.push_str(&colon_options(
+            &self.seeds,
+            &self.gca,
+            self.inflation,
+            self.train_frames,
+            self.test_frames,
+        ));
         if !self.dev_seeds.is_empty() {
             let s: Vec<String> = self.dev_seeds.iter().map(u64::to_string).collect();
             c.push_str(&format!(" --dev-seeds {}", s.join(",")));
         }
-        for g in &self.gca {
-            c.push_str(&format!(" --gca {}", q(g)));
-        }
-        if let Some(i) = self.inflation {
-            c.push_str(&format!(" --inflation {i}"));
-        }
         if let Some(s) = self.changes {
             c.push_str(&format!(" --changes {}", s.name()));
-        }
-        if let Some(n) = self.train_frames {
-            c.push_str(&format!(" --train-frames {n}"));
-        }
-        if let Some(n) = self.test_frames {
-            c.push_str(&format!(" --test-frames {n}"));
         }
         c.push_str(&format!(" --pretrained {}", shell_quote(&self.pretrained)));
         if let Some(e) = self.epochs {
@@ -406,35 +395,16 @@ impl BenchmarkJob {
             );
         }
         if self.print_jobs {
-            let mut jobs: Vec<String> =
-                colons.iter().map(|c| self.command(Some(&c.name))).collect();
-            jobs.push(format!(
-                "# when every colon is done: {}",
-                self.command(None)
-            ));
             return Ok(BenchmarkReport {
                 colons: Vec::new(),
                 summary: Vec::new(),
                 missing: Vec::new(),
                 table: String::new(),
                 out: self.out.clone(),
-                jobs,
+                jobs: job_lines(&colons, &|c| self.command(c)),
             });
         }
-        let selected: Vec<&Colon> = match &self.colon {
-            Some(name) => {
-                let c = colons.iter().find(|c| &c.name == name).with_context(|| {
-                    let names: Vec<&str> = colons.iter().map(|c| c.name.as_str()).collect();
-                    format!(
-                        "`colon` {name}: not a colon of this benchmark; expected one of {}",
-                        names.join(", ")
-                    )
-                })?;
-                vec![c]
-            }
-            None if self.merge => Vec::new(),
-            None => colons.iter().collect(),
-        };
+        let selected = select_colons(&colons, self.colon.as_deref(), self.merge)?;
         common::prepare_out(&self.out, "benchmark.toml", self.force)?;
         common::create_out(&self.out, "benchmark.toml")?;
         common::write_text(
@@ -723,6 +693,69 @@ impl BenchmarkJob {
     }
 }
 
+/// The lines `print_jobs` prints: one command per colon, then the merge command.
+pub(super) fn job_lines(colons: &[Colon], command: &dyn Fn(Option<&str>) -> String) -> Vec<String> {
+    let mut jobs: Vec<String> = colons.iter().map(|c| command(Some(&c.name))).collect();
+    jobs.push(format!("# when every colon is done: {}", command(None)));
+    jobs
+}
+
+/// The colons a run works on: the one named by `colon`, none for a merge, else all.
+///
+/// # Errors
+/// A `colon` that is not one of `colons`.
+pub(super) fn select_colons<'a>(
+    colons: &'a [Colon],
+    colon: Option<&str>,
+    merge: bool,
+) -> Result<Vec<&'a Colon>> {
+    Ok(match colon {
+        Some(name) => {
+            let c = colons.iter().find(|c| c.name == name).with_context(|| {
+                let names: Vec<&str> = colons.iter().map(|c| c.name.as_str()).collect();
+                format!(
+                    "`colon` {name}: not a colon of this run; expected one of {}",
+                    names.join(", ")
+                )
+            })?;
+            vec![c]
+        }
+        None if merge => Vec::new(),
+        None => colons.iter().collect(),
+    })
+}
+
+/// The command-line options that name the colons and their passes (`seeds`, `gca`,
+/// `inflation`, `train_frames`, `test_frames`), each with a leading space.
+pub(super) fn colon_options(
+    seeds: &[u64],
+    gca: &[PathBuf],
+    inflation: Option<f64>,
+    train_frames: Option<usize>,
+    test_frames: Option<usize>,
+) -> String {
+    let mut c = String::new();
+    if seeds.is_empty() {
+        c.push_str(" --seeds none");
+    } else {
+        let s: Vec<String> = seeds.iter().map(u64::to_string).collect();
+        c.push_str(&format!(" --seeds {}", s.join(",")));
+    }
+    for g in gca {
+        c.push_str(&format!(" --gca {}", shell_quote(&g.display().to_string())));
+    }
+    if let Some(i) = inflation {
+        c.push_str(&format!(" --inflation {i}"));
+    }
+    if let Some(n) = train_frames {
+        c.push_str(&format!(" --train-frames {n}"));
+    }
+    if let Some(n) = test_frames {
+        c.push_str(&format!(" --test-frames {n}"));
+    }
+    c
+}
+
 fn frames_note(train: Option<usize>, test: Option<usize>) -> String {
     match (train, test) {
         (None, None) => String::new(),
@@ -869,12 +902,17 @@ mod tests {
             c.starts_with("endoloc experiment benchmark --out 'exp/bench mark'"),
             "{c}"
         );
-        assert!(c.contains("--seeds 1,2 --dev-seeds 0"), "{c}");
-        assert!(c.contains("--gca ../shared/data/gca-edin-00090"));
-        assert!(
-            c.contains("--inflation 1.5 --changes moderate --test-frames 650")
-                && c.ends_with("--colon seed-2")
-        );
+        for option in [
+            "--seeds 1,2",
+            "--dev-seeds 0",
+            "--gca ../shared/data/gca-edin-00090",
+            "--inflation 1.5",
+            "--changes moderate",
+            "--test-frames 650",
+        ] {
+            assert!(c.contains(option), "{option}: {c}");
+        }
+        assert!(c.ends_with("--colon seed-2"), "{c}");
         assert!(job.command(None).ends_with("--merge"));
     }
 

@@ -29,7 +29,10 @@ use endoloc_sim::change::ChangeConfig;
 use endoloc_sim::{Preset, Severity};
 use serde::{Deserialize, Serialize};
 
-use super::benchmark::{BenchmarkJob, Colon, Interval, Seeds, interval, parse_seeds};
+use super::benchmark::{
+    BenchmarkJob, Colon, Interval, Seeds, colon_options, interval, job_lines, parse_seeds,
+    select_colons,
+};
 use super::common::{self, DataArgs, MethodRow, shell_quote};
 use super::compare::{CompareJob, Method};
 
@@ -460,18 +463,13 @@ impl ChangesJob {
             self.zones,
             self.seed
         );
-        if self.seeds.is_empty() {
-            c.push_str(" --seeds none");
-        } else {
-            let s: Vec<String> = self.seeds.iter().map(u64::to_string).collect();
-            c.push_str(&format!(" --seeds {}", s.join(",")));
-        }
-        for g in &self.gca {
-            c.push_str(&format!(" --gca {}", q(g)));
-        }
-        if let Some(i) = self.inflation {
-            c.push_str(&format!(" --inflation {i}"));
-        }
+        c.push_str(&colon_options(
+            &self.seeds,
+            &self.gca,
+            self.inflation,
+            self.train_frames,
+            self.test_frames,
+        ));
         if !self.factors.is_empty() {
             let f: Vec<&str> = self.factors.iter().map(|f| f.name()).collect();
             c.push_str(&format!(" --factors {}", f.join(",")));
@@ -479,12 +477,6 @@ impl ChangesJob {
         if !self.severities.is_empty() {
             let s: Vec<&str> = self.severities().iter().map(|s| s.name()).collect();
             c.push_str(&format!(" --severities {}", s.join(",")));
-        }
-        if let Some(n) = self.train_frames {
-            c.push_str(&format!(" --train-frames {n}"));
-        }
-        if let Some(n) = self.test_frames {
-            c.push_str(&format!(" --test-frames {n}"));
         }
         c.push_str(&format!(" --pretrained {}", shell_quote(&self.pretrained)));
         if self.keep_data {
@@ -507,34 +499,15 @@ impl ChangesJob {
             bail!("no colons: give `seeds` and/or `gca`");
         }
         if self.print_jobs {
-            let mut jobs: Vec<String> =
-                colons.iter().map(|c| self.command(Some(&c.name))).collect();
-            jobs.push(format!(
-                "# when every colon is done: {}",
-                self.command(None)
-            ));
             return Ok(ChangesReport {
                 summary: Vec::new(),
                 missing: Vec::new(),
                 table: String::new(),
                 out: self.out.clone(),
-                jobs,
+                jobs: job_lines(&colons, &|c| self.command(c)),
             });
         }
-        let selected: Vec<&Colon> = match &self.colon {
-            Some(name) => {
-                let c = colons.iter().find(|c| &c.name == name).with_context(|| {
-                    let names: Vec<&str> = colons.iter().map(|c| c.name.as_str()).collect();
-                    format!(
-                        "`colon` {name}: not a colon of this study; expected one of {}",
-                        names.join(", ")
-                    )
-                })?;
-                vec![c]
-            }
-            None if self.merge => Vec::new(),
-            None => colons.iter().collect(),
-        };
+        let selected = select_colons(&colons, self.colon.as_deref(), self.merge)?;
         common::prepare_out(&self.out, "changes.toml", self.force)?;
         common::create_out(&self.out, "changes.toml")?;
         let saved = ChangesJob {
