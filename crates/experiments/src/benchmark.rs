@@ -404,7 +404,7 @@ impl BenchmarkJob {
                 jobs: job_lines(&colons, &|c| self.command(c)),
             });
         }
-        let selected = select_colons(&colons, self.colon.as_deref(), self.merge)?;
+        let selected = select_colons(&colons, self.colon.as_deref(), self.merge, "benchmark")?;
         common::prepare_out(&self.out, "benchmark.toml", self.force)?;
         common::create_out(&self.out, "benchmark.toml")?;
         common::write_text(
@@ -700,7 +700,8 @@ pub(super) fn job_lines(colons: &[Colon], command: &dyn Fn(Option<&str>) -> Stri
     jobs
 }
 
-/// The colons a run works on: the one named by `colon`, none for a merge, else all.
+/// The colons a run works on: the one named by `colon`, none for a merge, else all; `what`
+/// names the run in the error (`benchmark`, `study`).
 ///
 /// # Errors
 /// A `colon` that is not one of `colons`.
@@ -708,13 +709,14 @@ pub(super) fn select_colons<'a>(
     colons: &'a [Colon],
     colon: Option<&str>,
     merge: bool,
+    what: &str,
 ) -> Result<Vec<&'a Colon>> {
     Ok(match colon {
         Some(name) => {
             let c = colons.iter().find(|c| c.name == name).with_context(|| {
                 let names: Vec<&str> = colons.iter().map(|c| c.name.as_str()).collect();
                 format!(
-                    "`colon` {name}: not a colon of this run; expected one of {}",
+                    "`colon` {name}: not a colon of this {what}; expected one of {}",
                     names.join(", ")
                 )
             })?;

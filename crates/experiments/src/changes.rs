@@ -507,7 +507,7 @@ impl ChangesJob {
                 jobs: job_lines(&colons, &|c| self.command(c)),
             });
         }
-        let selected = select_colons(&colons, self.colon.as_deref(), self.merge)?;
+        let selected = select_colons(&colons, self.colon.as_deref(), self.merge, "study")?;
         common::prepare_out(&self.out, "changes.toml", self.force)?;
         common::create_out(&self.out, "changes.toml")?;
         let saved = ChangesJob {
