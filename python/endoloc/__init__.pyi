@@ -236,6 +236,7 @@ def map(
     seq: str = ...,
     images_per_zone: int = ...,
     threshold: float = ...,
+    intensity: Literal["linear", "log"] = ...,
     delta_r: float = ...,
     observation_radius: float = ...,
     force: bool = ...,
@@ -250,6 +251,9 @@ def map(
     - ``seq``: Training sequence inside the dataset.
     - ``images_per_zone``: Images per zone (the paper's `m ≥ 3`).
     - ``threshold``: SURF threshold of the map (units of MATLAB's `MetricThreshold`).
+    - ``intensity``: How intensities enter SURF, for the map and the frames localized
+      against it: ``"linear"`` (as published) or ``"log"`` (robust to another light,
+      exposure and highlights; more map points, slower frames).
     - ``delta_r``: δr: map points reprojecting farther than this are dropped, pixels.
     - ``observation_radius``: Every other training frame of a zone adds its observations
       of the zone's points (matched by projection within this many pixels) before they are

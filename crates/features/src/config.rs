@@ -73,6 +73,76 @@ pub struct SurfConfig {
     /// the speed-up (`endoloc bench live`). Default false.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub reference_filters: bool,
+    /// How pixel intensities enter the detector and the descriptor: as they are (default,
+    /// SURF as published) or on a log scale ([`Intensity::Log`]). Maps record it; a map's test
+    /// frames are described the same way.
+    #[serde(skip_serializing_if = "Intensity::is_linear")]
+    pub intensity: Intensity,
+}
+
+/// How pixel intensities enter SURF.
+///
+/// SURF's descriptor is normalised, so it ignores a gain, but not a change of contrast that
+/// differs from place to place: another exposure curve (gamma), a light that falls off
+/// differently, stronger highlights and sheen. On a log scale a gain is an offset and a gamma
+/// a gain, both of which the box filters and the normalisation ignore, and a dim region's
+/// texture counts as much as a bright one's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[serde(rename_all = "snake_case")]
+pub enum Intensity {
+    /// Intensities as they are, 0..255.
+    #[default]
+    Linear,
+    /// `255 · ln(1 + v / 8) / ln(1 + 255 / 8)` of each intensity `v` (0..255): still 0..255,
+    /// the offset 8 keeping the sensor noise of black regions from being amplified without
+    /// bound. Thresholds keep their units (a mid-grey region's contrast is scaled by about
+    /// 0.6, a dark one's raised).
+    Log,
+}
+
+/// The offset of [`Intensity::Log`], in 0..255 intensity units.
+pub const LOG_INTENSITY_OFFSET: f32 = 8.0;
+
+impl std::fmt::Display for Intensity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Intensity::Linear => "linear",
+            Intensity::Log => "log",
+        })
+    }
+}
+
+impl Intensity {
+    /// Whether intensities are used as they are.
+    pub fn is_linear(&self) -> bool {
+        *self == Intensity::Linear
+    }
+
+    /// The transformed value of intensity `v` on the 0..255 scale.
+    pub fn apply(self, v: f32) -> f32 {
+        match self {
+            Intensity::Linear => v,
+            Intensity::Log => {
+                255.0 * (v.max(0.0) / LOG_INTENSITY_OFFSET).ln_1p()
+                    / (255.0 / LOG_INTENSITY_OFFSET).ln_1p()
+            }
+        }
+    }
+
+    /// The 8-bit lookup table of [`Intensity::apply`] (rounded), `None` for linear.
+    pub fn table(self) -> Option<[u8; 256]> {
+        match self {
+            Intensity::Linear => None,
+            Intensity::Log => {
+                let mut t = [0u8; 256];
+                for (v, out) in t.iter_mut().enumerate() {
+                    *out = self.apply(v as f32).round().clamp(0.0, 255.0) as u8;
+                }
+                Some(t)
+            }
+        }
+    }
 }
 
 impl Default for SurfConfig {
@@ -88,6 +158,7 @@ impl Default for SurfConfig {
             max_pixels: 1 << 24,
             max_keypoints: 0,
             reference_filters: false,
+            intensity: Intensity::Linear,
         }
     }
 }
@@ -131,6 +202,11 @@ impl SurfConfig {
     /// Sets [`SurfConfig::parallel`].
     pub fn with_parallel(mut self, parallel: bool) -> Self {
         self.parallel = parallel;
+        self
+    }
+    /// Sets [`SurfConfig::intensity`].
+    pub fn with_intensity(mut self, intensity: Intensity) -> Self {
+        self.intensity = intensity;
         self
     }
     /// Sets [`SurfConfig::max_pixels`].

@@ -46,7 +46,7 @@ pub mod warp;
 #[cfg(test)]
 mod config_tests;
 
-pub use config::SurfConfig;
+pub use config::{Intensity, LOG_INTENSITY_OFFSET, SurfConfig};
 pub use error::FeatureError;
 pub use integral::IntegralImage;
 pub use keypoint::{BLOB_SIGMA_PER_SCALE, Describe, Feature, Keypoint};
@@ -103,7 +103,8 @@ impl Surf {
         }
     }
 
-    /// Integral image of an 8-bit grey image (0..255).
+    /// Integral image of an 8-bit grey image (0..255), its intensities transformed as
+    /// [`SurfConfig::intensity`] says.
     ///
     /// # Errors
     /// [`FeatureError::ImageTooLarge`] beyond [`SurfConfig::max_pixels`].
@@ -111,7 +112,17 @@ impl Surf {
         let (w, h) = (image.width() as usize, image.height() as usize);
         self.check_size(w, h)?;
         self.check_mask(w, h)?;
-        Ok(IntegralImage::from_u8(image.as_raw(), w, h))
+        match self.config.intensity.table() {
+            None => Ok(IntegralImage::from_u8(image.as_raw(), w, h)),
+            Some(table) => {
+                let mapped: Vec<u8> = image
+                    .as_raw()
+                    .iter()
+                    .map(|&v| table[usize::from(v)])
+                    .collect();
+                Ok(IntegralImage::from_u8(&mapped, w, h))
+            }
+        }
     }
 
     /// Integral image of a row-major `f32` image with intensities on the 0..1 scale
@@ -151,7 +162,16 @@ impl Surf {
                 value: pixels[i],
             });
         }
-        Ok(IntegralImage::from_f32_unit(pixels, width, height))
+        let intensity = self.config.intensity;
+        if intensity.is_linear() {
+            Ok(IntegralImage::from_f32_unit(pixels, width, height))
+        } else {
+            let mapped: Vec<f32> = pixels
+                .iter()
+                .map(|&v| intensity.apply(v * 255.0) / 255.0)
+                .collect();
+            Ok(IntegralImage::from_f32_unit(&mapped, width, height))
+        }
     }
 
     fn check_size(&self, width: usize, height: usize) -> Result<(), FeatureError> {

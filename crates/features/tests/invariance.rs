@@ -150,3 +150,53 @@ fn descriptors_of_corresponding_keypoints_are_nearest_neighbours_under_rotation(
         "only {nn_ok}/{pairs} counterparts are nearest neighbours"
     );
 }
+
+/// Correct nearest-neighbour matches (ratio 0.8, same place within 1.5 px) between a scene
+/// lit by an endoscope's light (bright centre, dim periphery) and the same scene under a
+/// dimmer, narrower light with another exposure curve (gamma 1.15).
+fn matches_under_relighting(intensity: endoloc_features::Intensity) -> usize {
+    let (w, h) = (320usize, 240usize);
+    let img = texture::textured_image(w, h, 5);
+    let lit = |beam: f32, gain: f32, gamma: f32| {
+        GrayImage::from_fn(w as u32, h as u32, |x, y| {
+            let (dx, dy) = (x as f32 - 160.0, y as f32 - 120.0);
+            let falloff = (1.0 + (dx * dx + dy * dy) / (120.0 * 120.0)).powf(-beam);
+            let v = f32::from(img.get_pixel(x, y)[0]) / 255.0;
+            image::Luma([(255.0 * (gain * falloff * v).powf(gamma)).round() as u8])
+        })
+    };
+    let (img, relit) = (lit(1.0, 1.0, 1.0), lit(2.0, 0.7, 1.15));
+    let surf = SurfConfig::default()
+        .with_threshold(50.0)
+        .with_intensity(intensity)
+        .with_parallel(false)
+        .init()
+        .unwrap();
+    let a = surf.detect_and_describe(&img).unwrap();
+    let b = surf.detect_and_describe(&relit).unwrap();
+    let matcher = endoloc_features::Matcher::new(endoloc_features::MatcherConfig::default());
+    matcher
+        .match_descriptors(&a, &b)
+        .unwrap()
+        .iter()
+        .filter(|m| {
+            let (p, q) = (&a[m.query].keypoint, &b[m.train].keypoint);
+            (p.x - q.x).hypot(p.y - q.y) < 1.5
+        })
+        .count()
+}
+
+/// On a log scale a gamma is a gain and a light's fall-off an offset that varies slowly:
+/// log-intensity SURF keeps more correct matches under another exposure curve and light.
+#[test]
+fn log_intensity_keeps_matches_under_another_light() {
+    use endoloc_features::Intensity;
+    let linear = matches_under_relighting(Intensity::Linear);
+    let log = matches_under_relighting(Intensity::Log);
+    eprintln!("correct matches under relighting: linear {linear}, log {log}");
+    assert!(log >= 30, "log intensity: only {log} correct matches");
+    assert!(
+        log as f64 >= 1.3 * linear as f64,
+        "log intensity {log} correct matches, linear {linear}: expected clearly more"
+    );
+}

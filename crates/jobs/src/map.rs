@@ -38,6 +38,16 @@ pub struct MapJob {
     /// larger, richer images). Test frames are described at twice it and retried at it.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = MapJob::default().threshold))]
     pub threshold: f32,
+    /// How intensities enter SURF, for the map and for the frames localized against it:
+    /// `linear` (as they are: SURF as published) or `log` (a gain is an offset and a gamma a
+    /// gain, and a dim region's texture counts as much as a bright one's: more frames register
+    /// when the light, exposure and highlights differ between the passes; the map has more
+    /// points and a frame takes longer).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_enum, default_value_t = MapJob::default().intensity)
+    )]
+    pub intensity: endoloc_features::Intensity,
     /// δr: drop map points reprojecting farther than this, pixels.
     #[cfg_attr(
         feature = "cli",
@@ -67,6 +77,7 @@ impl Default for MapJob {
             seq: "train".into(),
             images_per_zone: cfg.images_per_zone,
             threshold: cfg.surf.threshold,
+            intensity: cfg.surf.intensity,
             delta_r_px: cfg.triangulation.delta_r_px,
             observation_radius_px: cfg.observation_radius_px,
             force: false,
@@ -94,6 +105,7 @@ impl MapJob {
             ..MapConfig::default()
         };
         cfg.surf.threshold = self.threshold;
+        cfg.surf.intensity = self.intensity;
         cfg.triangulation.delta_r_px = self.delta_r_px;
         cfg
     }

@@ -2,7 +2,8 @@
 //!
 //! The page (`RUN/view.html` by default) holds everything it shows — script, style, poses, map
 //! points and a thumbnail per test frame — and opens from disk with no network: a 3-D view of
-//! the training pass, the per-zone map points, the true and the estimated trajectories and the
+//! the colon's wall when the dataset was simulated, the training pass, the per-zone
+//! map points, the true and the estimated trajectories and the
 //! scope at the current frame; a frame scrubber with the frame's thumbnail, its map points
 //! reprojected with the estimated pose and its `frames.csv` row; the position error along the
 //! pass (when the test sequence has `poses.txt`).
@@ -24,6 +25,8 @@ use crate::bail;
 use crate::error::{Context, JobError, Result};
 use crate::localize::{LOCALIZE_FILE, LocalizeJob};
 use crate::progress::{Progress, bar};
+
+mod wall;
 
 /// The page's markup and style; `/*VIEWER_JS*/` and `/*VIEWER_DATA*/` are replaced.
 const TEMPLATE: &str = include_str!("view/viewer.html");
@@ -147,6 +150,10 @@ struct PageData {
     thumb: ThumbData,
     /// Training pass positions, flat `x y z …`.
     train: Vec<f64>,
+    /// Rings of the colon's wall ([`wall::colon_wall`]), each flat `x y z …`; none when the
+    /// dataset was not simulated.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    wall: Vec<Vec<f64>>,
     /// Map points, flat `x y z …`, sorted by zone.
     points: Vec<f64>,
     /// `[first, end)` indices into the points of each zone.
@@ -588,6 +595,11 @@ impl ViewJob {
             None => (None, None),
         };
         let with_pose = est.iter().filter(|e| e.is_some()).count();
+        // The colon the test sequence's dataset was simulated through, when it was.
+        let wall = seq
+            .parent()
+            .map(|dataset| wall::colon_wall(dataset, &mut missing))
+            .unwrap_or_default();
         let data = PageData {
             title: run
                 .canonicalize()
@@ -604,6 +616,7 @@ impl ViewJob {
                 height: th,
             },
             train: scene.train,
+            wall,
             zone_points: scene.zone_points,
             gt: gt
                 .as_ref()
@@ -753,6 +766,9 @@ impl LiveView {
                 endoloc_eval::Midline::new(&points, "the training pass").ok()
             }
         };
+        let wall = data
+            .map(|dir| wall::colon_wall(dir, &mut missing))
+            .unwrap_or_default();
         let tw = 320.min(camera.width);
         let th = ((f64::from(tw) * f64::from(camera.height) / f64::from(camera.width)).round()
             as u32)
@@ -769,6 +785,7 @@ impl LiveView {
                 height: th,
             },
             train: scene.train,
+            wall,
             points: scene.points,
             zone_points: scene.zone_points,
             gt: None,

@@ -4,7 +4,8 @@ use anyhow::Result;
 use endoloc_jobs::{Progress, ViewJob};
 
 /// Write one self-contained HTML page that shows a localization run: a 3-D view (drag to
-/// orbit, wheel to zoom) of the training pass, the per-zone map points, the true and the
+/// orbit, wheel to zoom) of the colon's wall (when the dataset was simulated), the training
+/// pass, the per-zone map points, the true and the
 /// estimated trajectories (dots by status: refined green, init_only orange, rejected red, or
 /// by position error) and the scope at the current frame; a frame scrubber and play button
 /// with the frame's thumbnail, its zone's map points reprojected with the estimated pose, its

@@ -166,6 +166,9 @@
     var P = projector(), s = [0, 0], i, z;
     g3.fillStyle = '#0d0e10'; g3.fillRect(0, 0, c3.width, c3.height);
     drawnPoints = 0;
+    if (D.wall && $('showWall').checked) {
+      D.wall.forEach(function (ring) { polyline(P, ring.concat(ring.slice(0, 3)), 3, '#3b4350', 1); });
+    }
     if ($('showPoints').checked) {
       for (z = 0; z < D.zone_points.length; z++) {
         var r = D.zone_points[z];
@@ -410,7 +413,8 @@
   }
   $('scrub').max = String(Math.max(N - 1, 0));
   $('scrub').addEventListener('input', function () { setFrame(parseInt(this.value, 10)); });
-  ['showTrain', 'showPoints', 'showGt', 'showEst', 'follow'].forEach(function (id) {
+  if (!D.wall) $('showWall').parentNode.style.display = 'none';
+  ['showWall', 'showTrain', 'showPoints', 'showGt', 'showEst', 'follow'].forEach(function (id) {
     $(id).addEventListener('change', draw3d);
   });
   $('byError').addEventListener('change', function () { legend(); draw3d(); });
