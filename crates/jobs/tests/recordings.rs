@@ -261,7 +261,9 @@ fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video
     }
 
     // Streamed (decoded while read, no file per frame): the frames and times the import
-    // wrote, bit for bit.
+    // wrote. The stream is grey from the decoder's luma plane; the import's PNGs are colour
+    // that endoloc turns grey, a few levels darker where the decoded colour of a red wall
+    // clips below black in green and blue (measured: 5.6 levels on average, 9 at most).
     let exact = endoloc_data::Dataset::open(&root.join("pass.mp4-exact"))
         .unwrap()
         .sequence("train")
@@ -277,9 +279,21 @@ fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video
             .find(|f| (f.time_s - p.timestamp_s).abs() < 1e-4)
             .expect("the imported frame streamed");
         assert!(f.damage.is_none());
+        let png = exact.load_gray(k).unwrap();
+        assert_eq!(f.image.dimensions(), png.dimensions());
+        let diffs: Vec<u8> = f
+            .image
+            .as_raw()
+            .iter()
+            .zip(png.as_raw())
+            .map(|(a, b)| a.abs_diff(*b))
+            .collect();
+        let mean = diffs.iter().map(|&d| f64::from(d)).sum::<f64>() / diffs.len() as f64;
+        let max = diffs.iter().copied().max().unwrap_or(0);
         assert!(
-            f.image == exact.load_gray(k).unwrap(),
-            "frame at {} s",
+            mean < 7.0 && max <= 12,
+            "frame at {} s: the streamed frame is {mean:.2} grey levels off the imported one on \
+             average, {max} at most",
             f.time_s
         );
     }
