@@ -244,17 +244,19 @@ fn feed(mut stream: FrameStream, mailbox: &Mailbox, pace: bool, newest_wins: boo
                 return;
             }
         };
-        if pace {
+        // A paced file's frame arrives at its due time, as a camera would deliver it: a frame
+        // decoded late counts its lateness in its latency.
+        let at = if pace {
             let t0 = *first_time.get_or_insert(frame.time_s);
             let due = start + Duration::from_secs_f64((frame.time_s - t0).max(0.0));
             if let Some(wait) = due.checked_duration_since(Instant::now()) {
                 std::thread::sleep(wait);
             }
-        }
-        let arrived = Arrived {
-            frame,
-            at: Instant::now(),
+            due
+        } else {
+            Instant::now()
         };
+        let arrived = Arrived { frame, at };
         if !mailbox.put(arrived, newest_wins) {
             return;
         }
