@@ -177,6 +177,11 @@ fn loss_falls_on_a_tiny_separable_task_and_resume_continues() {
     )
     .unwrap();
     assert_eq!(a.resumed_after_epoch, None);
+    // A save of epoch 3 killed after its weights and optimiser state were in place but before
+    // `state.json` named them: the resumed run must take the whole checkpoint of epoch 2.
+    for name in ["net-0003.bpk", "optim-0003.bpk", ".state.json.tmp"] {
+        std::fs::write(ckpt.join(name), b"half-written").unwrap();
+    }
     let b = fit(
         &tiny_config(4),
         &cache,
@@ -191,6 +196,12 @@ fn loss_falls_on_a_tiny_separable_task_and_resume_continues() {
     assert_eq!(b.history.len(), 4);
     assert_eq!(b.steps, 2 * tiny_config(4).schedule.steps_per_epoch());
     assert_eq!(b.history[..2], a.history[..]);
+    let mut left: Vec<String> = std::fs::read_dir(&ckpt)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["net-0004.bpk", "optim-0004.bpk", "state.json"]);
 }
 
 #[test]

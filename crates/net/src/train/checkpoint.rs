@@ -2,10 +2,14 @@
 //! `DIR.partial/` the model is written into ([`TrainTarget`]), and the checkpoint in its
 //! `checkpoint/` subfolder that an interrupted run resumes from.
 //!
-//! A checkpoint is three files, each written under a temporary name and renamed into place:
-//! `net.bpk` (the network's weights, as burn saves a module), `optim.bpk` (Adam's state) and
-//! `state.json` (the epoch reached, the history, the config and the data's frame and zone
-//! counts, checked on resume).
+//! A checkpoint is three files: `net-EPOCH.bpk` (the network's weights, as burn saves a
+//! module), `optim-EPOCH.bpk` (Adam's state) and `state.json` (the epoch reached, the history,
+//! the config and the data's frame and zone counts, checked on resume). Each is written under
+//! a temporary name and renamed into place, `state.json` last: it names the epoch whose weights
+//! and optimiser state a resumed run loads, so a run killed anywhere inside a save resumes from
+//! one whole checkpoint (the new one or the one before), never from weights of one epoch with
+//! the optimiser of another. The files of earlier epochs are removed once `state.json` names
+//! the new one.
 
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
@@ -26,9 +30,16 @@ struct CheckpointState {
     zones: usize,
 }
 
-const CKPT_NET: &str = "net.bpk";
-const CKPT_OPTIM: &str = "optim.bpk";
+/// Prefix of the network's file: `net-EPOCH.bpk`.
+const CKPT_NET: &str = "net";
+/// Prefix of the optimiser's file: `optim-EPOCH.bpk`.
+const CKPT_OPTIM: &str = "optim";
 const CKPT_STATE: &str = "state.json";
+
+/// The file of `what` ([`CKPT_NET`] or [`CKPT_OPTIM`]) after `epoch` (1-based).
+fn epoch_file(what: &str, epoch: usize) -> String {
+    format!("{what}-{epoch:04}.bpk")
+}
 /// Name of the checkpoint folder inside the staging folder.
 const CHECKPOINT_DIR: &str = "checkpoint";
 
@@ -82,12 +93,12 @@ pub(crate) fn resume(
             st.zones
         )));
     }
-    let p = dir.join(CKPT_NET);
+    let p = dir.join(epoch_file(CKPT_NET, st.epoch));
     let net = learner
         .net
         .try_load_file(&p)
         .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
-    let p = dir.join(CKPT_OPTIM);
+    let p = dir.join(epoch_file(CKPT_OPTIM, st.epoch));
     let optim = learner
         .optim
         .load(&p)
@@ -152,28 +163,47 @@ fn write_files(
     state: &CheckpointState,
 ) -> Result<(), NetError> {
     std::fs::create_dir_all(dir).map_err(|e| NetError::io(dir, e))?;
-    // Write to temporary names, then rename: a crash mid-write leaves the old checkpoint.
+    // Each file under a temporary name, then renamed; the weights and optimiser state carry
+    // their epoch in their names, so renaming them leaves the previous checkpoint whole until
+    // `state.json` is replaced.
+    let (net_name, optim_name) = (
+        epoch_file(CKPT_NET, state.epoch),
+        epoch_file(CKPT_OPTIM, state.epoch),
+    );
     let tmp = |name: &str| dir.join(format!(".{name}.tmp"));
-    let p = tmp(CKPT_NET);
+    // burn may add its extension to the file name it is given.
+    let written = |p: PathBuf| {
+        if p.is_file() {
+            p
+        } else {
+            p.with_extension("tmp.bpk")
+        }
+    };
+    let publish = |from: PathBuf, name: &str| {
+        let to = dir.join(name);
+        std::fs::rename(&from, &to).map_err(|e| NetError::io(&to, e))
+    };
+    let p = tmp(&net_name);
     net.clone()
         .save_file(&p)
         .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
-    let p = tmp(CKPT_OPTIM);
+    publish(written(p), &net_name)?;
+    let p = tmp(&optim_name);
     optim
         .save(&p)
         .map_err(|e| NetError::weights(&p, format!("{e:?}")))?;
+    publish(written(p), &optim_name)?;
     let p = tmp(CKPT_STATE);
     let text = serde_json::to_string_pretty(state).map_err(|e| NetError::Config(e.to_string()))?;
     std::fs::write(&p, text).map_err(|e| NetError::io(&p, e))?;
-    for name in [CKPT_NET, CKPT_OPTIM, CKPT_STATE] {
-        let (from, to) = (tmp(name), dir.join(name));
-        // burn may add an extension to the file name it is given.
-        let from = if from.is_file() {
-            from
-        } else {
-            from.with_extension("tmp.bpk")
-        };
-        std::fs::rename(&from, &to).map_err(|e| NetError::io(&to, e))?;
+    publish(p, CKPT_STATE)?;
+    // Only now are the earlier epochs' files (and temporary files of a killed save) unused.
+    for entry in std::fs::read_dir(dir).map_err(|e| NetError::io(dir, e))? {
+        let path = entry.map_err(|e| NetError::io(dir, e))?.path();
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        if name != CKPT_STATE && name != net_name && name != optim_name {
+            std::fs::remove_file(&path).map_err(|e| NetError::io(&path, e))?;
+        }
     }
     Ok(())
 }
