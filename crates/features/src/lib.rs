@@ -65,11 +65,18 @@ pub struct Surf {
     config: SurfConfig,
     /// The valid area of the frames, when they have one.
     mask: Option<Arc<Mask>>,
+    /// [`SurfConfig::intensity`]'s 8-bit lookup table (`None`: linear).
+    table: Option<[u8; 256]>,
 }
 
 impl Surf {
     pub(crate) fn from_validated(config: SurfConfig) -> Self {
-        Self { config, mask: None }
+        let table = config.intensity.table();
+        Self {
+            config,
+            mask: None,
+            table,
+        }
     }
 
     /// The configuration this detector was built from.
@@ -112,7 +119,7 @@ impl Surf {
         let (w, h) = (image.width() as usize, image.height() as usize);
         self.check_size(w, h)?;
         self.check_mask(w, h)?;
-        match self.config.intensity.table() {
+        match &self.table {
             None => Ok(IntegralImage::from_u8(image.as_raw(), w, h)),
             Some(table) => {
                 let mapped: Vec<u8> = image
