@@ -105,24 +105,44 @@ impl Localizer {
         // A refused frame must not advance the stream, and a tracked frame is never
         // classified: its size is checked first.
         self.classifier.check_image(img)?;
+        // A frame the motion model cannot track from is searched for in the candidate zones,
+        // where features at the test threshold seldom suffice once the track is lost and the
+        // frame is described again at the retry threshold: describe it once, at that one.
         let t = Instant::now();
-        let features = self.surf.detect_and_describe(img)?;
+        let (features, retry) = match &self.retry_surf {
+            Some(dense) if !self.tracks_next(state) => {
+                (dense.detect_and_describe(img)?, Retry::None)
+            }
+            _ => (self.surf.detect_and_describe(img)?, Retry::Image(img)),
+        };
         let times = StageTimes {
             surf_ms: ms(t),
             ..Default::default()
         };
-        self.live_step(
-            state,
-            &features,
-            Retry::Image(img),
-            Zones::Image(img),
-            times,
-        )
+        self.live_step(state, &features, retry, Zones::Image(img), times)
+    }
+
+    /// Whether the next frame of `state` is registered from the motion model's prediction
+    /// first (a refined frame recent enough, [`LocalizerConfig::track_frames`](crate::LocalizerConfig::track_frames)).
+    fn tracks_next(&self, state: &LiveState) -> bool {
+        let confirmed = self.cfg.confirm.is_on().then_some(&self.gate);
+        self.cfg.track_frames > 0
+            && state
+                .motion
+                .predict(
+                    state.frame,
+                    self.cfg.hold_frames,
+                    &self.cfg.motion,
+                    confirmed,
+                )
+                .is_some_and(|p| p.age <= self.cfg.track_frames)
     }
 
     /// [`Localizer::localize_live`] for a frame already classified (`pred`, not yet folded
     /// into the filter; `times.zone_ms` its time, reported only when the frame needs it) and
-    /// described (`features`, and `retry` as in [`Localizer::localize_features`]).
+    /// described (`features`, and `retry` as in [`Localizer::localize_features`]; a frame the
+    /// motion model cannot track from uses `retry`'s features alone, as [`Localizer::localize_live`]
+    /// does).
     ///
     /// # Errors
     /// As [`Localizer::localize_features`].
@@ -134,7 +154,18 @@ impl Localizer {
         pred: &ZonePrediction,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
-        self.live_step(state, features, retry.into(), Zones::Ready(pred), times)
+        // As in `localize_live`: a frame the motion model cannot track from is registered
+        // with the retry's features alone.
+        match retry {
+            Some(r) if !self.tracks_next(state) => {
+                let times = StageTimes {
+                    surf_ms: r.surf_ms,
+                    ..times
+                };
+                self.live_step(state, r.features, Retry::None, Zones::Ready(pred), times)
+            }
+            _ => self.live_step(state, features, retry.into(), Zones::Ready(pred), times),
+        }
     }
 
     /// One live frame: predict, register from the prediction, and when that fails classify,
