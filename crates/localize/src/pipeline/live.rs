@@ -123,19 +123,26 @@ impl Localizer {
     }
 
     /// Whether the next frame of `state` is registered from the motion model's prediction
-    /// first (a refined frame recent enough, [`LocalizerConfig::track_frames`](crate::LocalizerConfig::track_frames)).
+    /// first ([`Localizer::recent`]).
     fn tracks_next(&self, state: &LiveState) -> bool {
+        self.recent(self.predict_next(state).as_ref()).is_some()
+    }
+
+    /// The motion model's prediction of the next frame of `state`.
+    fn predict_next(&self, state: &LiveState) -> Option<Prediction> {
         let confirmed = self.cfg.confirm.is_on().then_some(&self.gate);
-        self.cfg.track_frames > 0
-            && state
-                .motion
-                .predict(
-                    state.frame,
-                    self.cfg.hold_frames,
-                    &self.cfg.motion,
-                    confirmed,
-                )
-                .is_some_and(|p| p.age <= self.cfg.track_frames)
+        state.motion.predict(
+            state.frame,
+            self.cfg.hold_frames,
+            &self.cfg.motion,
+            confirmed,
+        )
+    }
+
+    /// `prediction` when a frame is registered from it: at most
+    /// [`LocalizerConfig::track_frames`](crate::LocalizerConfig::track_frames) old (0: never).
+    fn recent<'p>(&self, prediction: Option<&'p Prediction>) -> Option<&'p Prediction> {
+        prediction.filter(|p| self.cfg.track_frames > 0 && p.age <= self.cfg.track_frames)
     }
 
     /// [`Localizer::localize_live`] for a frame already classified (`pred`, not yet folded
@@ -180,13 +187,9 @@ impl Localizer {
         zones: Zones<'_>,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
+        let prediction = self.predict_next(state);
         let frame = state.frame;
         state.frame += 1;
-        let motion = &self.cfg.motion;
-        let confirmed = self.cfg.confirm.is_on().then_some(&self.gate);
-        let prediction = state
-            .motion
-            .predict(frame, self.cfg.hold_frames, motion, confirmed);
         let tracked = if self.cfg.classify_tracked {
             Tracked::NotTried
         } else {
@@ -318,9 +321,9 @@ impl Localizer {
         pred: Option<&ZonePrediction>,
         times: StageTimes,
     ) -> Result<Tracked, LocalizeError> {
-        let recent =
-            prediction.filter(|p| self.cfg.track_frames > 0 && p.age <= self.cfg.track_frames);
-        let Some((p, z)) = recent.and_then(|p| Some((p, self.classifier.truth_zone(&p.t_wc)?)))
+        let Some((p, z)) = self
+            .recent(prediction)
+            .and_then(|p| Some((p, self.classifier.truth_zone(&p.t_wc)?)))
         else {
             return Ok(Tracked::NotTried);
         };

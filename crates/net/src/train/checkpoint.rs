@@ -36,12 +36,13 @@ const CKPT_NET: &str = "net";
 const CKPT_OPTIM: &str = "optim";
 const CKPT_STATE: &str = "state.json";
 
+/// Name of the checkpoint folder inside the staging folder.
+const CHECKPOINT_DIR: &str = "checkpoint";
+
 /// The file of `what` ([`CKPT_NET`] or [`CKPT_OPTIM`]) after `epoch` (1-based).
 fn epoch_file(what: &str, epoch: usize) -> String {
     format!("{what}-{epoch:04}.bpk")
 }
-/// Name of the checkpoint folder inside the staging folder.
-const CHECKPOINT_DIR: &str = "checkpoint";
 
 /// The network being trained with its optimiser: what a checkpoint holds besides its state.
 pub(crate) struct Learner {
