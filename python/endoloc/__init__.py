@@ -88,10 +88,11 @@ def simulate(*, progress=None, **options) -> Dataset:
 
 def import_video(video, *, progress=None, **options) -> Dataset:
     """A video file with its pass's tracker pose log as a dataset (``endoloc import video``),
-    opened.
+    opened; into an existing dataset ``out``, the pass is added as ``seq``.
 
     Keyword arguments are ``endoloc import``'s options (``out``, ``poses``, ``camera``,
-    ``time_offset``, ``sensor_to_camera``, ``test``, ``test_poses``, …). Returns the new
+    ``time_offset``, ``sensor_to_camera``, ``test``, ``test_poses``, ``seq``, …); without
+    ``poses`` the frames keep their times only (``Dataset.unposed``). Returns the
     ``Dataset``.
     """
     if "time_offset" in options and not isinstance(options["time_offset"], str):

@@ -127,7 +127,8 @@ def import_video(
 
     - ``out``: Output dataset folder.
     - ``poses``: The pass's pose log: a tracker CSV with a header, TUM, or C3VD's
-      ``pose.txt`` (required).
+      ``pose.txt``; without one the frames keep their times only (``frames.txt``): the pass
+      can be localized, not evaluated.
     - ``log_rate_hz``: The rate of a log without time stamps (C3VD's ``pose.txt``), Hz;
       default the video's frame rate.
     - ``camera``: ``W,H,FX,FY,CX,CY``: the video carries no intrinsics (required).
@@ -140,7 +141,8 @@ def import_video(
     - ``max_fps``: Keep at most this many frames per second.
     - ``size``: Resize the frames to ``"WxH"`` (same aspect ratio; the camera is scaled).
     - ``test`` / ``test_poses``: The other pass's video and log, written as ``test``.
-    - ``seq``: Sequence name without ``test`` (default ``train``).
+    - ``seq``: Sequence name without ``test`` (default ``train``); into an existing dataset
+      ``out``, the pass is added beside its sequences under this name.
     - ``name``: Dataset name in dataset.toml.
     - ``force``: Replace an existing dataset at ``out``.
     """

@@ -94,6 +94,10 @@ class Dataset:
     @property
     def sequences(self) -> list[str]: ...
     @property
+    def unposed(self) -> list[str]:
+        """Passes without poses (``frames.txt``: a video imported without a pose log), to
+        localize by folder (``localize(seq=dataset.path / name, ...)``)."""
+    @property
     def simulation(self) -> str | None:
         """The simulator's configuration (TOML) when the dataset was simulated."""
     def sequence(self, name: str) -> Sequence: ...

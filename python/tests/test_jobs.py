@@ -177,5 +177,12 @@ def test_a_video_with_its_tracker_log_imports_as_a_dataset(tiny, tmp_path):
     seq = imported["train"]
     assert len(seq) == len(train)
     np.testing.assert_allclose(seq.poses, train.poses, atol=1e-6)
+    # Without a log, into the same dataset: a pass of frame times only, beside the other.
+    added = endoloc.import_video(
+        video, out=tmp_path / "data", seq="recorded",
+        camera=f"{c.width},{c.height},{c.fx},{c.fy},{c.cx},{c.cy}",
+    )
+    assert (added.sequences, added.unposed) == (["train"], ["recorded"])
+    assert len((tmp_path / "data/recorded/frames.txt").read_text().splitlines()) == 1 + len(train)
     with pytest.raises(endoloc.EndolocError, match="camera"):
         endoloc.import_video(video, poses=log, out=tmp_path / "other")

@@ -4,10 +4,12 @@
 //! every `poses.txt` line (8 finite numbers, unit quaternion), increasing timestamps, one image
 //! per pose, every image decodes (in parallel) as 8-bit grey or RGB of the camera's size,
 //! `sections.csv` rows (header, frame order, valid labels, count), and the depth maps (count,
-//! 16-bit grey, size).
+//! 16-bit grey, size). A pass without poses (`frames.txt` instead of `poses.txt`): its times
+//! (finite, increasing), one image per time, every image.
 
 use crate::dataset::{
-    DEPTH_DIR, DatasetMeta, IMAGES_DIR, META_FILE, POSES_FILE, SECTIONS_FILE, list_pngs,
+    DEPTH_DIR, DatasetMeta, FRAME_TIMES_FILE, IMAGES_DIR, META_FILE, POSES_FILE, SECTIONS_FILE,
+    list_pngs,
 };
 use crate::png_io::decode;
 use crate::sections_csv::parse_sections_text;
@@ -163,6 +165,7 @@ pub fn check_dataset(dir: &Path) -> Result<CheckReport, DataError> {
                             root: dir.to_path_buf(),
                             meta: meta.clone(),
                             sequences: Vec::new(),
+                            unposed: Vec::new(),
                         };
                         if let Err(e) = ds.load_mask() {
                             report.problems.push(Problem::from_error(e));
@@ -191,6 +194,9 @@ pub fn check_dataset(dir: &Path) -> Result<CheckReport, DataError> {
         if seq_dir.join(POSES_FILE).is_file() {
             report.sequences.push(name);
             check_sequence(&seq_dir, camera.as_ref(), &mut report);
+        } else if seq_dir.join(FRAME_TIMES_FILE).is_file() {
+            report.sequences.push(format!("{name} (no poses)"));
+            check_sequence(&seq_dir, camera.as_ref(), &mut report);
         } else if seq_dir.join(IMAGES_DIR).is_dir() {
             report.problems.push(Problem::new(
                 seq_dir.join(POSES_FILE),
@@ -217,6 +223,19 @@ fn check_sequence(seq: &Path, camera: Option<&Camera>, report: &mut CheckReport)
         && let Err(e) = crate::sequence_camera(seq, c)
     {
         problems.push(Problem::from_error(e));
+    }
+    // A pass without poses: frames.txt, one time per image.
+    if !seq.join(POSES_FILE).is_file() {
+        let n = match crate::read_frame_times(&seq.join(FRAME_TIMES_FILE)) {
+            Ok(t) => t.len(),
+            Err(e) => {
+                problems.push(Problem::from_error(e));
+                0
+            }
+        };
+        report.frames_checked += n;
+        check_images(seq, n, FRAME_TIMES_FILE, camera, report);
+        return;
     }
     // poses.txt: every line.
     let poses_path = seq.join(POSES_FILE);
@@ -260,37 +279,8 @@ fn check_sequence(seq: &Path, camera: Option<&Camera>, report: &mut CheckReport)
         }
     }
     report.frames_checked += n_poses;
-
-    // Images: count, then decode each in parallel.
-    let images_dir = seq.join(IMAGES_DIR);
-    let images = if images_dir.is_dir() {
-        match list_pngs(&images_dir) {
-            Ok(v) => v,
-            Err(e) => {
-                problems.push(Problem::from_error(e));
-                Vec::new()
-            }
-        }
-    } else {
-        problems.push(Problem::new(
-            &images_dir,
-            None,
-            "missing; expected a folder of PNG images, one per pose",
-        ));
-        Vec::new()
-    };
-    if images_dir.is_dir() && images.len() != n_poses {
-        problems.push(Problem::new(
-            &images_dir,
-            None,
-            format!(
-                "{} images but {n_poses} poses in {POSES_FILE}; expected one image per pose",
-                images.len()
-            ),
-        ));
-    }
-    problems.extend(decode_all(&images, camera, false));
-    report.files_decoded += images.len();
+    check_images(seq, n_poses, POSES_FILE, camera, report);
+    let problems = &mut report.problems;
 
     // sections.csv
     let sections_path = seq.join(SECTIONS_FILE);
@@ -340,6 +330,52 @@ fn check_sequence(seq: &Path, camera: Option<&Camera>, report: &mut CheckReport)
             }
         }
     }
+}
+
+/// Checks a sequence's images: as many as `n_poses` lines in `listed` (`poses.txt` or
+/// `frames.txt`), each decodable at the camera's size.
+fn check_images(
+    seq: &Path,
+    n_poses: usize,
+    listed: &str,
+    camera: Option<&Camera>,
+    report: &mut CheckReport,
+) {
+    let problems = &mut report.problems;
+    let images_dir = seq.join(IMAGES_DIR);
+    let images = if images_dir.is_dir() {
+        match list_pngs(&images_dir) {
+            Ok(v) => v,
+            Err(e) => {
+                problems.push(Problem::from_error(e));
+                Vec::new()
+            }
+        }
+    } else {
+        problems.push(Problem::new(
+            &images_dir,
+            None,
+            "missing; expected a folder of PNG images, one per pose",
+        ));
+        Vec::new()
+    };
+    if images_dir.is_dir() && images.len() != n_poses {
+        let (what, one) = if listed == POSES_FILE {
+            ("poses", "pose")
+        } else {
+            ("times", "time")
+        };
+        problems.push(Problem::new(
+            &images_dir,
+            None,
+            format!(
+                "{} images but {n_poses} {what} in {listed}; expected one image per {one}",
+                images.len()
+            ),
+        ));
+    }
+    problems.extend(decode_all(&images, camera, false));
+    report.files_decoded += images.len();
 }
 
 /// Decodes every file in parallel; returns the problems in file order.

@@ -25,6 +25,9 @@ pub struct SequenceInfo {
     pub sections: Vec<(Section, usize)>,
     /// Whether the sequence has depth maps.
     pub has_depth: bool,
+    /// Whether each frame has a pose (false for a pass without poses, `frames.txt`: its
+    /// path length and speed are then 0).
+    pub posed: bool,
     /// Pixel type of the first image ("grey 8-bit", "RGB 8-bit"), if it could be read.
     pub pixel_type: Option<String>,
 }
@@ -48,11 +51,18 @@ pub struct DatasetInfo {
 /// `endoloc dataset check` for a full report).
 pub fn dataset_info(dir: &Path) -> Result<DatasetInfo, DataError> {
     let ds = Dataset::open(dir)?;
-    let mut sequences = Vec::with_capacity(ds.sequences.len());
-    for name in &ds.sequences {
-        let seq = ds.sequence(name)?;
-        let duration_s = match (seq.poses.first(), seq.poses.last()) {
-            (Some(a), Some(b)) => b.timestamp_s - a.timestamp_s,
+    let mut sequences = Vec::with_capacity(ds.sequences.len() + ds.unposed.len());
+    let mut names: Vec<&String> = ds.sequences.iter().chain(&ds.unposed).collect();
+    names.sort();
+    for name in names {
+        let seq = if ds.unposed.contains(name) {
+            crate::Sequence::open_frames(&ds.root.join(name))?
+        } else {
+            ds.sequence(name)?
+        };
+        let times = seq.timestamps();
+        let duration_s = match (times.first(), times.last()) {
+            (Some(a), Some(b)) => b - a,
             _ => 0.0,
         };
         let path_length_mm: f64 = seq
@@ -92,6 +102,7 @@ pub fn dataset_info(dir: &Path) -> Result<DatasetInfo, DataError> {
             },
             sections,
             has_depth: seq.depth_paths.is_some(),
+            posed: seq.is_posed(),
             pixel_type,
         });
     }
@@ -167,14 +178,22 @@ impl fmt::Display for DatasetInfo {
             "sequence", "frames", "duration s", "path mm", "speed mm/s", "depth"
         )?;
         for s in &self.sequences {
+            let (path, speed) = if s.posed {
+                (
+                    format!("{:.1}", s.path_length_mm),
+                    format!("{:.2}", s.mean_speed_mm_s),
+                )
+            } else {
+                ("no poses".to_string(), "–".to_string())
+            };
             writeln!(
                 f,
-                "{:<w$}  {:>7}  {:>10.2}  {:>10.1}  {:>10.2}  {:>5}  {}",
+                "{:<w$}  {:>7}  {:>10.2}  {:>10}  {:>10}  {:>5}  {}",
                 s.name,
                 s.frames,
                 s.duration_s,
-                s.path_length_mm,
-                s.mean_speed_mm_s,
+                path,
+                speed,
                 if s.has_depth { "yes" } else { "no" },
                 s.pixel_type.as_deref().unwrap_or("?")
             )?;

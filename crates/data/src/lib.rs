@@ -29,9 +29,9 @@ pub use centerline::{
 };
 pub use check::{CheckReport, Problem, check_dataset};
 pub use dataset::{
-    CHANGED_POSES_FILE, Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, MASK_FILE,
-    MIDLINE_FILE, SEQUENCE_CAMERA_FILE, Sequence, SequenceWriter, black_outside, mask_from_png,
-    read_camera_file, sequence_camera, write_dataset_mask, write_sequence_camera,
+    CHANGED_POSES_FILE, Dataset, DatasetMeta, DatasetWriter, FORMAT_VERSION, FRAME_TIMES_FILE,
+    MASK_FILE, MIDLINE_FILE, SEQUENCE_CAMERA_FILE, Sequence, SequenceWriter, black_outside,
+    mask_from_png, read_camera_file, sequence_camera, write_dataset_mask, write_sequence_camera,
 };
 pub use error::{DataError, toml_error_line};
 pub use fingerprint::{Fingerprint, poses_fingerprint};
@@ -44,5 +44,6 @@ pub use png_io::{
 };
 pub use sections_csv::{parse_sections, read_sections, write_sections};
 pub use trajectory::{
-    StampedPose, TUM_HEADER, TumReader, format_tum_line, parse_tum, read_tum, write_tum,
+    StampedPose, TUM_HEADER, TumReader, format_tum_line, parse_tum, read_frame_times, read_tum,
+    write_frame_times, write_tum,
 };

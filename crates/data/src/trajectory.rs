@@ -234,9 +234,91 @@ pub fn write_tum(path: &Path, poses: &[StampedPose]) -> Result<(), DataError> {
     write_atomic(path, text.as_bytes())
 }
 
+/// The comment line that starts every frame-times file endoloc writes (with its line break).
+pub const FRAME_TIMES_HEADER: &str =
+    "# endoloc frame times: timestamp[s], one line per image (a pass without poses)\n";
+
+/// Reads a frame-times file ([`FRAME_TIMES_FILE`](crate::FRAME_TIMES_FILE)): one time stamp (seconds)
+/// per non-comment line, strictly increasing; blank lines and `#` comments skipped.
+///
+/// # Errors
+/// [`DataError::Io`] if the file cannot be read; [`DataError::Parse`] naming the first line
+/// that is not one finite number after the previous line's.
+pub fn read_frame_times(path: &Path) -> Result<Vec<f64>, DataError> {
+    let text = read_text(path)?;
+    let mut times: Vec<f64> = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        let bad = |m: String| DataError::parse(path, i + 1, m);
+        let cols: Vec<&str> = t.split_whitespace().collect();
+        let [col] = cols[..] else {
+            return Err(bad(format!(
+                "expected 1 column: timestamp (seconds); found {}",
+                cols.len()
+            )));
+        };
+        let v: f64 = col
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(|| bad(format!("{col:?}: expected a finite time stamp in seconds")))?;
+        if let Some(&last) = times.last()
+            && v <= last
+        {
+            return Err(bad(format!(
+                "time stamp {v} is not after the previous frame's {last}; expected strictly \
+                 increasing time stamps (one line per image, in time order)"
+            )));
+        }
+        times.push(v);
+    }
+    Ok(times)
+}
+
+/// Writes a frame-times file atomically: [`FRAME_TIMES_HEADER`], then one time stamp per line
+/// (seconds, microsecond resolution).
+///
+/// # Errors
+/// [`DataError::Invalid`] if a time is not finite or not after the one before (nothing is
+/// written); [`DataError::Io`] if writing fails.
+pub fn write_frame_times(path: &Path, times: &[f64]) -> Result<(), DataError> {
+    let mut text = String::from(FRAME_TIMES_HEADER);
+    for (i, &t) in times.iter().enumerate() {
+        if !t.is_finite() || (i > 0 && t <= times[i - 1]) {
+            return Err(DataError::invalid(
+                path,
+                format!("frame {i}: time {t}; expected finite, strictly increasing time stamps"),
+            ));
+        }
+        let _ = writeln!(text, "{t:.6}");
+    }
+    write_atomic(path, text.as_bytes())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn frame_times_round_trip_and_a_bad_line_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("frames.txt");
+        write_frame_times(&path, &[0.0, 0.033367, 0.066733]).unwrap();
+        assert_eq!(read_frame_times(&path).unwrap(), [0.0, 0.033367, 0.066733]);
+        assert!(write_frame_times(&path, &[0.1, 0.1]).is_err());
+        std::fs::write(&path, "# t\n0.0\n0.5 1\n").unwrap();
+        let e = read_frame_times(&path).unwrap_err().to_string();
+        assert!(e.contains(":3") && e.contains("expected 1 column"), "{e}");
+        std::fs::write(&path, "0.2\nNaN\n").unwrap();
+        let e = read_frame_times(&path).unwrap_err().to_string();
+        assert!(e.contains(":2") && e.contains("finite"), "{e}");
+        std::fs::write(&path, "0.2\n0.1\n").unwrap();
+        let e = read_frame_times(&path).unwrap_err().to_string();
+        assert!(e.contains(":2") && e.contains("increasing"), "{e}");
+    }
 
     #[test]
     fn line_errors_say_what_was_expected() {

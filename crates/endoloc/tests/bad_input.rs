@@ -230,6 +230,15 @@ fn train_on(data: &Path, dir: &Path) -> Vec<String> {
     ])
 }
 
+/// Turns the sequence at `seq` into a pass without poses: `frames.txt` (its times) in place
+/// of `poses.txt`.
+fn unposed(seq: &Path) {
+    let poses = endoloc_data::read_tum(&seq.join("poses.txt")).unwrap();
+    let times: Vec<f64> = poses.iter().map(|p| p.timestamp_s).collect();
+    endoloc_data::write_frame_times(&seq.join("frames.txt"), &times).unwrap();
+    std::fs::remove_file(seq.join("poses.txt")).unwrap();
+}
+
 /// `localize` of `seq` with `model` into `dir/run`.
 fn localize(model: &Path, seq: &Path, dir: &Path) -> Vec<String> {
     args(&[
@@ -458,6 +467,25 @@ fn catalogue() -> Vec<Case> {
             |fx, d| {
                 let data = data_copy(fx, d);
                 std::fs::copy(frame(&data, "test", 0), frame(&data, "test", 20)).unwrap();
+                localize(&fx.model, &data.join("test"), d)
+            },
+        ),
+        case(
+            "training on a pass without poses (frames.txt only)",
+            &["train", "a pass without poses", "not trained on"],
+            |fx, d| {
+                let data = data_copy(fx, d);
+                unposed(&data.join("train"));
+                train_on(&data, d)
+            },
+        ),
+        case(
+            "a pass without poses whose frames.txt has a NaN (localize)",
+            &["frames.txt:4", "expected a finite time stamp"],
+            |fx, d| {
+                let data = data_copy(fx, d);
+                unposed(&data.join("test"));
+                edit_column(&data.join("test/frames.txt"), 4, 0, "NaN");
                 localize(&fx.model, &data.join("test"), d)
             },
         ),

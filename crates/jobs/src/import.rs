@@ -101,7 +101,8 @@ pub struct ImportJob {
     /// SRC is then written as `train`.
     #[cfg_attr(feature = "cli", arg(long, value_name = "SRC2"))]
     pub test: Option<PathBuf>,
-    /// Sequence name for SRC when neither `split` nor `test` is given.
+    /// Sequence name for SRC when neither `split` nor `test` is given; when `out` is an
+    /// existing dataset, SRC is added to it under this name.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ImportJob::default().seq))]
     pub seq: String,
     /// Frame rate for the time stamps (frame i at i / fps s) where the source has none.
@@ -129,7 +130,8 @@ pub struct ImportJob {
     #[cfg_attr(feature = "cli", arg(long, value_parser = ["mm", "cm", "m"]))]
     pub units: Option<String>,
     /// EndoSLAM: pose file, .csv or .xlsx (default: the only .csv or .xlsx in SRC/Poses,
-    /// else in SRC). Video: the pass's pose log (required).
+    /// else in SRC). Video: the pass's pose log; without one the frames are kept with their
+    /// times only (`frames.txt`): the pass can be localized, not evaluated.
     #[cfg_attr(feature = "cli", arg(long))]
     pub poses: Option<PathBuf>,
     /// Video: the rate of a pose log without time stamps (C3VD's pose.txt, one camera pose
@@ -233,6 +235,9 @@ pub struct VideoPass {
     /// Frames of the video (0-based, before `every`) left without a pose, with their times in
     /// the video, seconds.
     pub unposed: Vec<(usize, f64)>,
+    /// Whether the pass came with a pose log (false: its frames have times only,
+    /// `frames.txt`).
+    pub posed: bool,
 }
 
 /// Reads a 4×4 rigid transform from a text file (four rows of four numbers), translation in
@@ -447,17 +452,25 @@ impl ImportJob {
         }
         let mut out = Vec::new();
         for (name, video, poses) in passes {
-            let poses = poses.with_context(|| {
-                format!(
-                    "video {}: its pose log is required (`{}`): an endoloc dataset holds a pose per frame",
+            let log = match poses {
+                Some(poses) => {
+                    let rate_hz = self
+                        .log_rate_hz
+                        .or_else(|| endoloc_data::import::video::frame_rate(video));
+                    Some(read_pose_log(poses, &TrackerLogConfig { units, rate_hz })?)
+                }
+                None if time != VideoTime::Offset(0.0) || sensor_to_camera.is_some() => bail!(
+                    "video {}: `time_offset` and `sensor_to_camera` apply to a pose log; none \
+                     is given (`{}`)",
                     video.display(),
-                    if name == "test" && self.test.is_some() { "test_poses" } else { "poses" }
-                )
-            })?;
-            let rate_hz = self
-                .log_rate_hz
-                .or_else(|| endoloc_data::import::video::frame_rate(video));
-            let log = read_pose_log(poses, &TrackerLogConfig { units, rate_hz })?;
+                    if name == "test" && self.test.is_some() {
+                        "test_poses"
+                    } else {
+                        "poses"
+                    }
+                ),
+                None => None,
+            };
             let cfg = VideoConfig {
                 camera,
                 log,
@@ -542,7 +555,7 @@ impl ImportJob {
             recordings.push(t.display().to_string().into());
         }
         source.insert("recordings".into(), toml::Value::Array(recordings));
-        for (name, v) in videos {
+        for (name, v) in videos.iter().filter(|(_, v)| v.sequence.posed) {
             source.insert(
                 format!("{name}_time_offset_s"),
                 toml::Value::Float(v.offset_s),
@@ -561,6 +574,7 @@ impl ImportJob {
                 name,
                 undistort: self.undistort && self.format == ImportFormat::C3vd,
                 overwrite: self.force,
+                add: self.split.is_none() && self.test.is_none(),
                 source,
             },
         )
@@ -588,6 +602,7 @@ impl ImportJob {
                     offset_s: v.offset_s,
                     estimate: v.estimate,
                     unposed: v.unposed.clone(),
+                    posed: v.sequence.posed,
                 })
                 .collect(),
         })
@@ -622,6 +637,13 @@ impl fmt::Display for ImportReport {
                 if *depth { ", depth" } else { "" }
             )?;
             if let Some(v) = self.videos.iter().find(|v| &v.name == name) {
+                if !v.posed {
+                    write!(
+                        f,
+                        "; no pose log: frame times only (frames.txt), to be localized"
+                    )?;
+                    continue;
+                }
                 match &v.estimate {
                     Some(e) => write!(
                         f,

@@ -19,6 +19,11 @@ use nalgebra::{Translation3, UnitQuaternion};
 
 const OFFSET_S: f64 = 0.35;
 
+/// The `dataset.toml` of the dataset at `dir`.
+fn dataset_meta(dir: &std::path::Path) -> endoloc_data::DatasetMeta {
+    endoloc_data::DatasetMeta::read(&dir.join("dataset.toml")).unwrap()
+}
+
 /// The built-in colon's passes, `train` and `test` frames at 160×120, into `out`.
 fn simulate(out: &std::path::Path, train: usize, test: usize) {
     SimulateJob {
@@ -420,17 +425,22 @@ fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video
 
 /// A pass streamed live as raw frames (as `localize --video -` reads them from standard input)
 /// is localized as from its PNG files — the same zones, statuses and poses — and each frame's
-/// rows are on disk before the next frame is taken, so a killed run keeps them.
+/// rows are on disk before the next frame is taken, so a killed run keeps them. The same pass
+/// as a lossless video imported without a pose log, added to its dataset: localized as from its
+/// PNG files too. As H.264 with corrupt packets: the damaged frames are rejected and the stream
+/// goes on.
 #[test]
 fn a_stream_of_raw_frames_is_localized_as_its_png_files_are() {
     let tmp = tempfile::tempdir().unwrap();
     let root = tmp.path();
     let data = root.join("data");
-    simulate(&data, 200, 60);
+    // As `endoloc demo` indexes the small preset, at 160×120: enough test frames that some are
+    // refined (19 of 100), so that the runs below are compared on registrations too.
+    simulate(&data, 300, 100);
     let model = root.join("model");
     TrainJob {
         data: data.clone(),
-        zones: endoloc_net::ZoneSpec::Uniform(20),
+        zones: endoloc_net::ZoneSpec::Uniform(50),
         epochs: Some(0),
         pretrained: Some("builtin-joint".into()),
         out: model.clone(),
@@ -534,6 +544,85 @@ fn a_stream_of_raw_frames_is_localized_as_its_png_files_are() {
         .status()
         .unwrap();
     assert!(status.success());
+
+    // The pass as a lossless video (PNG in Matroska: the codec loses nothing, so what is
+    // compared is endoloc's path), without a log, added to the dataset as its own pass: its
+    // frames and times (frames.txt), the other passes untouched; localized, it gives what the
+    // PNG files give; it is refused where poses are needed.
+    let lossless = root.join("test.mkv");
+    let status = std::process::Command::new("ffmpeg")
+        .args(["-v", "error", "-y", "-framerate", "30", "-i"])
+        .arg(seq.dir.join("images/%06d.png"))
+        .args(["-c:v", "png", "-pix_fmt", "rgb24"])
+        .arg(&lossless)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let c = &endoloc_data::Dataset::open(&data).unwrap().meta.camera;
+    let add = |force: bool| ImportJob {
+        format: ImportFormat::Video,
+        src: lossless.clone(),
+        out: data.clone(),
+        seq: "recorded".into(),
+        camera: Some(format!(
+            "{},{},{},{},{},{}",
+            c.width, c.height, c.fx, c.fy, c.cx, c.cy
+        )),
+        force,
+        ..ImportJob::default()
+    };
+    let meta_before = dataset_meta(&data);
+    let test_poses = std::fs::read(data.join("test/poses.txt")).unwrap();
+    let report = add(false).run(&Silent).unwrap();
+    assert!(report.to_string().contains("frames.txt"), "{report}");
+    let dataset = endoloc_data::Dataset::open(&data).unwrap();
+    assert_eq!(
+        (dataset.sequences.clone(), dataset.unposed.clone()),
+        (
+            vec!["test".to_string(), "train".into()],
+            vec!["recorded".into()]
+        )
+    );
+    assert_eq!(
+        std::fs::read(data.join("test/poses.txt")).unwrap(),
+        test_poses
+    );
+    let meta_after = dataset_meta(&data);
+    let mut expected = meta_before.clone();
+    expected
+        .source
+        .insert("recorded".into(), meta_after.source["recorded"].clone());
+    assert_eq!(
+        meta_after, expected,
+        "only the added pass's provenance is new"
+    );
+    let e = dataset.sequence("recorded").unwrap_err().to_string();
+    assert!(
+        e.contains("without poses") && e.contains("localized"),
+        "{e}"
+    );
+    let checked = endoloc_data::check_dataset(&data).unwrap();
+    assert!(checked.is_ok(), "{checked}");
+    assert!(
+        checked
+            .sequences
+            .contains(&"recorded (no poses)".to_string())
+    );
+    let e = add(false).run(&Silent).unwrap_err();
+    let e = format!("{e}: {}", std::error::Error::source(&e).unwrap());
+    assert!(e.contains("recorded") && e.contains("force"), "{e}");
+    add(true).run(&Silent).unwrap();
+
+    let recorded = root.join("recorded-run");
+    LocalizeJob {
+        seq: data.join("recorded"),
+        ..job("recorded-run")
+    }
+    .run(&Silent)
+    .unwrap();
+    assert_eq!(rows(&recorded), rows(&from_files));
+    assert_eq!(poses(&recorded), poses(&from_files));
+
     let mut bytes = std::fs::read(&video).unwrap();
     let mid = bytes.len() / 2;
     bytes[mid..mid + 1500].fill(0xAB);

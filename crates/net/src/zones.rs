@@ -1153,6 +1153,7 @@ mod tests {
                     pose,
                 })
                 .collect(),
+            frame_times: None,
             image_paths: vec![],
             sections: None,
             depth_paths: None,

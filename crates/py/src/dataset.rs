@@ -147,6 +147,12 @@ impl PyDataset {
     fn sequences(&self) -> Vec<String> {
         self.dataset.sequences.clone()
     }
+    /// The passes without poses (sub-folders with a `frames.txt` and no `poses.txt`: a
+    /// video imported without a pose log), sorted: localized by folder, not opened here.
+    #[getter]
+    fn unposed(&self) -> Vec<String> {
+        self.dataset.unposed.clone()
+    }
     /// The simulator's configuration (TOML text) when the dataset was simulated.
     #[getter]
     fn simulation(&self) -> Option<String> {

@@ -10,6 +10,11 @@ pub const UNITS: &str = "mm";
 pub const META_FILE: &str = "dataset.toml";
 /// File name of a sequence's trajectory.
 pub const POSES_FILE: &str = "poses.txt";
+/// File name of the frame times of a pass recorded without poses (a video imported without a
+/// pose log), in place of [`POSES_FILE`]: one line per image, in the same order, the frame's
+/// time in seconds; `#` comments. Such a pass can be localized, not trained on, mapped or
+/// evaluated.
+pub const FRAME_TIMES_FILE: &str = "frames.txt";
 /// File name of a sequence's poses in a *changed* colon, beside `poses.txt` (TUM, mm): when
 /// the colon moved between the passes (a simulated test pass through a deformed colon),
 /// `poses.txt` holds each frame's anatomical pose — in the colon as it was mapped, what a

@@ -9,7 +9,7 @@ use std::path::Path;
 use super::layout::{FORMAT_VERSION, MASK_FILE, SEQUENCE_CAMERA_FILE, UNITS};
 
 /// The contents of `dataset.toml`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "meta_toml::MetaRepr", into = "meta_toml::MetaRepr")]
 pub struct DatasetMeta {
     /// Human-readable dataset name.

@@ -22,8 +22,8 @@ mod reader;
 mod writer;
 
 pub use layout::{
-    CHANGED_POSES_FILE, DEPTH_DIR, FORMAT_VERSION, IMAGES_DIR, MASK_FILE, META_FILE, MIDLINE_FILE,
-    POSES_FILE, SECTIONS_FILE, SEQUENCE_CAMERA_FILE, UNITS,
+    CHANGED_POSES_FILE, DEPTH_DIR, FORMAT_VERSION, FRAME_TIMES_FILE, IMAGES_DIR, MASK_FILE,
+    META_FILE, MIDLINE_FILE, POSES_FILE, SECTIONS_FILE, SEQUENCE_CAMERA_FILE, UNITS,
 };
 pub use mask::{black_outside, mask_from_png, write_dataset_mask};
 pub use meta::{DatasetMeta, read_camera_file, sequence_camera, write_sequence_camera};

@@ -2,12 +2,14 @@
 
 use crate::png_io::{decode, decode_depth_mm};
 use crate::sections_csv::read_sections;
-use crate::trajectory::{StampedPose, read_tum};
+use crate::trajectory::{StampedPose, read_frame_times, read_tum};
 use crate::{DataError, Section};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use super::layout::{DEPTH_DIR, IMAGES_DIR, META_FILE, POSES_FILE, SECTIONS_FILE};
+use super::layout::{
+    DEPTH_DIR, FRAME_TIMES_FILE, IMAGES_DIR, META_FILE, POSES_FILE, SECTIONS_FILE,
+};
 use super::mask::{black_outside, read_dataset_mask};
 use super::meta::DatasetMeta;
 
@@ -20,10 +22,27 @@ pub struct Dataset {
     pub meta: DatasetMeta,
     /// Names of the sub-folders that hold a `poses.txt`, sorted.
     pub sequences: Vec<String>,
+    /// Names of the passes without poses — sub-folders with a `frames.txt` and no
+    /// `poses.txt` (a video imported without a pose log) — sorted. They can be localized
+    /// ([`Sequence::open_frames`]), not trained on, mapped or evaluated.
+    pub unposed: Vec<String>,
 }
 
 /// Sorted names of the visible sub-folders of `root` that contain `poses.txt`.
 pub(crate) fn list_sequences(root: &Path) -> Result<Vec<String>, DataError> {
+    list_subfolders_with(root, POSES_FILE)
+}
+
+/// Sorted names of the visible sub-folders of `root` that contain `frames.txt` and no
+/// `poses.txt`: the passes without poses.
+pub(crate) fn list_unposed(root: &Path) -> Result<Vec<String>, DataError> {
+    let mut names = list_subfolders_with(root, FRAME_TIMES_FILE)?;
+    names.retain(|n| !root.join(n).join(POSES_FILE).is_file());
+    Ok(names)
+}
+
+/// Sorted names of the visible sub-folders of `root` that contain the file `file`.
+fn list_subfolders_with(root: &Path, file: &str) -> Result<Vec<String>, DataError> {
     let mut names = Vec::new();
     for entry in std::fs::read_dir(root).map_err(|e| DataError::io(root, e))? {
         let entry = entry.map_err(|e| DataError::io(root, e))?;
@@ -32,7 +51,7 @@ pub(crate) fn list_sequences(root: &Path) -> Result<Vec<String>, DataError> {
             continue;
         }
         let p = entry.path();
-        if p.is_dir() && p.join(POSES_FILE).is_file() {
+        if p.is_dir() && p.join(file).is_file() {
             names.push(name);
         }
     }
@@ -76,10 +95,12 @@ impl Dataset {
         }
         let meta = DatasetMeta::read(&meta_path)?;
         let sequences = list_sequences(dir)?;
+        let unposed = list_unposed(dir)?;
         Ok(Dataset {
             root: dir.to_path_buf(),
             meta,
             sequences,
+            unposed,
         })
     }
 
@@ -111,6 +132,9 @@ impl Dataset {
     /// sections, depth maps: run `endoloc dataset check` for a full report); errors from
     /// reading `poses.txt` or `sections.csv`.
     pub fn sequence(&self, name: &str) -> Result<Sequence, DataError> {
+        if self.unposed.iter().any(|s| s == name) {
+            return Err(unposed_error(&self.root.join(name)));
+        }
         if !self.sequences.iter().any(|s| s == name) {
             return Err(DataError::invalid(
                 self.root.join(name),
@@ -126,8 +150,24 @@ impl Dataset {
         }
         let c = &self.meta.camera;
         let mask = self.load_mask()?.map(Arc::new);
-        Sequence::open_in(&self.root.join(name), Some((c.width, c.height)), mask)
+        Sequence::open_in(
+            &self.root.join(name),
+            Some((c.width, c.height)),
+            mask,
+            false,
+        )
     }
+}
+
+/// The error for a pass without poses opened where poses are needed.
+fn unposed_error(dir: &Path) -> DataError {
+    DataError::invalid(
+        dir,
+        format!(
+            "a pass without poses ({FRAME_TIMES_FILE}, no {POSES_FILE}: recorded without a pose log); \
+             it can be localized, not trained on, mapped or evaluated"
+        ),
+    )
 }
 
 /// One sequence of a dataset, loaded lazily: poses and labels in memory, images on demand.
@@ -137,8 +177,12 @@ pub struct Sequence {
     pub name: String,
     /// Sequence folder.
     pub dir: PathBuf,
-    /// Camera-to-world poses `T_wc` (mm), one per image.
+    /// Camera-to-world poses `T_wc` (mm), one per image; empty for a pass without poses
+    /// (opened with [`Sequence::open_frames`]; its times are in `frame_times`).
     pub poses: Vec<StampedPose>,
+    /// The frames' times (seconds) of a pass without poses (`frames.txt`); `None` for a
+    /// posed sequence, whose times are its poses'.
+    pub frame_times: Option<Vec<f64>>,
     /// Image files in frame order (sorted file names).
     pub image_paths: Vec<PathBuf>,
     /// Anatomical label per frame, when `sections.csv` exists.
@@ -159,8 +203,22 @@ impl Sequence {
     /// Loads the sequence stored in folder `dir`.
     ///
     /// # Errors
-    /// See [`Dataset::sequence`].
+    /// See [`Dataset::sequence`]; [`DataError::Invalid`] for a pass without poses.
     pub fn open(dir: &Path) -> Result<Self, DataError> {
+        Self::open_with(dir, false)
+    }
+
+    /// Loads the frames stored in folder `dir`, with or without poses: for what needs only
+    /// the images and their times (localizing a pass). A pass without poses has an empty
+    /// `poses` and its times in `frame_times`.
+    ///
+    /// # Errors
+    /// See [`Dataset::sequence`]; errors from reading `frames.txt`.
+    pub fn open_frames(dir: &Path) -> Result<Self, DataError> {
+        Self::open_with(dir, true)
+    }
+
+    fn open_with(dir: &Path, unposed_ok: bool) -> Result<Self, DataError> {
         // The dataset's camera and mask, when the sequence sits in a dataset folder.
         let (image_size, mask) = match dir.parent() {
             Some(root) if root.join(META_FILE).is_file() => {
@@ -171,30 +229,47 @@ impl Sequence {
             }
             _ => (None, None),
         };
-        Self::open_in(dir, image_size, mask)
+        Self::open_in(dir, image_size, mask, unposed_ok)
     }
 
     /// [`Sequence::open`] with the camera's image size (`None`: unchecked) and the dataset's
-    /// mask already known.
+    /// mask already known; a pass without poses is opened only when `unposed_ok`.
     fn open_in(
         dir: &Path,
         image_size: Option<(u32, u32)>,
         mask: Option<Arc<image::GrayImage>>,
+        unposed_ok: bool,
     ) -> Result<Self, DataError> {
         let name = dir
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let poses = read_tum(&dir.join(POSES_FILE))?;
+        let unposed = !dir.join(POSES_FILE).is_file() && dir.join(FRAME_TIMES_FILE).is_file();
+        if unposed && !unposed_ok {
+            return Err(unposed_error(dir));
+        }
+        let (poses, frame_times, listed) = if unposed {
+            let times = read_frame_times(&dir.join(FRAME_TIMES_FILE))?;
+            (Vec::new(), Some(times), ("times", FRAME_TIMES_FILE, "time"))
+        } else {
+            (
+                read_tum(&dir.join(POSES_FILE))?,
+                None,
+                ("poses", POSES_FILE, "pose"),
+            )
+        };
         let images_dir = dir.join(IMAGES_DIR);
         let image_paths = list_pngs(&images_dir)?;
-        let n = poses.len();
+        let n = frame_times.as_ref().map_or(poses.len(), Vec::len);
         if image_paths.len() != n {
             return Err(DataError::invalid(
                 &images_dir,
                 format!(
-                    "{} images but {n} poses in {POSES_FILE}; expected one image per pose (run `endoloc dataset check`)",
-                    image_paths.len()
+                    "{} images but {n} {} in {}; expected one image per {} (run `endoloc dataset check`)",
+                    image_paths.len(),
+                    listed.0,
+                    listed.1,
+                    listed.2
                 ),
             ));
         }
@@ -231,6 +306,7 @@ impl Sequence {
             name,
             dir: dir.to_path_buf(),
             poses,
+            frame_times,
             image_paths,
             sections,
             depth_paths,
@@ -248,12 +324,26 @@ impl Sequence {
 
     /// Number of frames.
     pub fn len(&self) -> usize {
-        self.poses.len()
+        self.frame_times.as_ref().map_or(self.poses.len(), Vec::len)
     }
 
     /// Whether the sequence has no frames.
     pub fn is_empty(&self) -> bool {
-        self.poses.is_empty()
+        self.len() == 0
+    }
+
+    /// Whether each frame has a pose (false for a pass opened with
+    /// [`Sequence::open_frames`] that has none).
+    pub fn is_posed(&self) -> bool {
+        self.frame_times.is_none()
+    }
+
+    /// The frames' times, seconds, in frame order (the poses' time stamps, or `frames.txt`).
+    pub fn timestamps(&self) -> Vec<f64> {
+        match &self.frame_times {
+            Some(t) => t.clone(),
+            None => self.poses.iter().map(|p| p.timestamp_s).collect(),
+        }
     }
 
     fn frame_path<'a>(&self, paths: &'a [PathBuf], i: usize) -> Result<&'a Path, DataError> {

@@ -4,7 +4,7 @@
 use crate::fsutil::{hidden_sibling, parent_dir, sync_dir, write_atomic};
 use crate::png_io::{check_len, depth_code_from_mm, write_png};
 use crate::sections_csv::write_sections;
-use crate::trajectory::{StampedPose, write_tum};
+use crate::trajectory::{StampedPose, write_frame_times, write_tum};
 use crate::{DataError, Section};
 use endoloc_geometry::Camera;
 use std::collections::{BTreeMap, BTreeSet};
@@ -12,7 +12,8 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use super::layout::{
-    DEPTH_DIR, IMAGES_DIR, MASK_FILE, META_FILE, MIDLINE_FILE, POSES_FILE, SECTIONS_FILE,
+    DEPTH_DIR, FRAME_TIMES_FILE, IMAGES_DIR, MASK_FILE, META_FILE, MIDLINE_FILE, POSES_FILE,
+    SECTIONS_FILE,
 };
 use super::mask::{check_mask, write_mask_png};
 use super::meta::DatasetMeta;
@@ -49,6 +50,8 @@ pub struct DatasetWriter {
     dir: PathBuf,
     meta: DatasetMeta,
     overwrite: bool,
+    /// Adding sequences to the existing dataset at `dir` ([`DatasetWriter::add_to`]).
+    adding: bool,
     shared: Arc<WriterShared>,
     finished: bool,
 }
@@ -86,6 +89,7 @@ impl DatasetWriter {
             dir: dir.to_path_buf(),
             meta: meta.clone(),
             overwrite,
+            adding: false,
             shared: Arc::new(WriterShared {
                 staging,
                 camera: meta.camera,
@@ -93,6 +97,40 @@ impl DatasetWriter {
             }),
             finished: false,
         })
+    }
+
+    /// Adds sequences to the existing dataset at `dir`: they are written into a hidden staging
+    /// folder beside it and moved in by [`DatasetWriter::finish`], each whole, then
+    /// `dataset.toml` is replaced (with any change made through [`DatasetWriter::meta_mut`]).
+    /// The dataset's other sequences are not touched; a sequence of the same name is replaced
+    /// only when `overwrite`.
+    ///
+    /// # Errors
+    /// [`DataError::Invalid`] when `dir` is not a dataset; errors reading its `dataset.toml`;
+    /// [`DataError::Io`] if the staging folder cannot be created.
+    pub fn add_to(dir: &Path, overwrite: bool) -> Result<Self, DataError> {
+        let meta = super::Dataset::open(dir)?.meta;
+        crate::fsutil::remove_stale_siblings(dir, "staging");
+        let staging = hidden_sibling(dir, "staging");
+        std::fs::create_dir(&staging).map_err(|e| DataError::io(&staging, e))?;
+        Ok(DatasetWriter {
+            dir: dir.to_path_buf(),
+            overwrite,
+            adding: true,
+            shared: Arc::new(WriterShared {
+                staging,
+                camera: meta.camera,
+                sequences: Mutex::new(BTreeMap::new()),
+            }),
+            meta,
+            finished: false,
+        })
+    }
+
+    /// The metadata that will be written, to change before [`DatasetWriter::finish`] (e.g.
+    /// the provenance of an added sequence).
+    pub fn meta_mut(&mut self) -> &mut DatasetMeta {
+        &mut self.meta
     }
 
     /// The destination folder.
@@ -213,6 +251,9 @@ impl DatasetWriter {
                 ),
             ));
         }
+        if self.adding {
+            return self.finish_adding();
+        }
         let staging = self.shared.staging.clone();
         let meta_path = staging.join(META_FILE);
         let text = self
@@ -249,6 +290,48 @@ impl DatasetWriter {
             self.finished = true;
             sync_dir(&parent_dir(&self.dir));
         }
+        Ok(self.dir.clone())
+    }
+}
+
+impl DatasetWriter {
+    /// [`DatasetWriter::finish`] of [`DatasetWriter::add_to`]: each staged sequence renamed
+    /// into the dataset (one it replaces moved aside first and removed after), then
+    /// `dataset.toml` replaced atomically.
+    fn finish_adding(self) -> Result<PathBuf, DataError> {
+        let names: Vec<String> = lock(&self.shared.sequences).keys().cloned().collect();
+        let existing: Vec<&String> = names
+            .iter()
+            .filter(|n| self.dir.join(n).symlink_metadata().is_ok())
+            .collect();
+        if let Some(name) = existing.first()
+            && !self.overwrite
+        {
+            return Err(DataError::AlreadyExists {
+                path: self.dir.join(name),
+            });
+        }
+        let text = self
+            .meta
+            .to_toml_string()
+            .map_err(|m| DataError::invalid(self.dir.join(META_FILE), m))?;
+        let mut replaced = Vec::new();
+        for name in &names {
+            let target = self.dir.join(name);
+            if target.symlink_metadata().is_ok() {
+                let old = hidden_sibling(&target, "old");
+                std::fs::rename(&target, &old).map_err(|e| DataError::io(&target, e))?;
+                replaced.push(old);
+            }
+            std::fs::rename(self.shared.staging.join(name), &target)
+                .map_err(|e| DataError::io(&target, e))?;
+        }
+        write_atomic(&self.dir.join(META_FILE), text.as_bytes())?;
+        sync_dir(&self.dir);
+        for old in replaced {
+            std::fs::remove_dir_all(&old).map_err(|e| DataError::io(&old, e))?;
+        }
+        // The staging folder is empty now; Drop removes it.
         Ok(self.dir.clone())
     }
 }
@@ -444,14 +527,56 @@ impl SequenceWriter {
         poses: &[StampedPose],
         sections: Option<&[Section]>,
     ) -> Result<(), DataError> {
-        let frames = std::mem::take(&mut *lock(&self.frames));
         let n = poses.len();
+        self.check_frames(n, "poses")?;
+        if let Some(s) = sections
+            && s.len() != n
+        {
+            return Err(DataError::invalid(
+                self.final_dir.join(SECTIONS_FILE),
+                format!(
+                    "{} section labels for {n} frames; expected one per frame",
+                    s.len()
+                ),
+            ));
+        }
+        write_tum(&self.dir.join(POSES_FILE), poses)
+            .and_then(|()| match sections {
+                Some(s) => write_sections(&self.dir.join(SECTIONS_FILE), s),
+                None => Ok(()),
+            })
+            .map_err(|e| e.relocated(&self.dir, &self.final_dir))?;
+        sync_dir(&self.dir);
+        lock(&self.shared.sequences).insert(self.name.clone(), true);
+        Ok(())
+    }
+
+    /// Completes a pass recorded without poses: writes [`FRAME_TIMES_FILE`] (each image's time,
+    /// seconds, same order) in place of `poses.txt`. Such a pass can be localized, not trained
+    /// on, mapped or evaluated.
+    ///
+    /// # Errors
+    /// As [`SequenceWriter::finish`], with `times` for the poses; [`DataError::Invalid`] when
+    /// the times are not finite and strictly increasing.
+    pub fn finish_unposed(self, times: &[f64]) -> Result<(), DataError> {
+        self.check_frames(times.len(), "frame times")?;
+        write_frame_times(&self.dir.join(FRAME_TIMES_FILE), times)
+            .map_err(|e| e.relocated(&self.dir, &self.final_dir))?;
+        sync_dir(&self.dir);
+        lock(&self.shared.sequences).insert(self.name.clone(), true);
+        Ok(())
+    }
+
+    /// Checks that the images written are exactly frames `0..n` (`what` names what gave `n`),
+    /// with depth for all of them or none.
+    fn check_frames(&self, n: usize, what: &str) -> Result<(), DataError> {
+        let frames = std::mem::take(&mut *lock(&self.frames));
         let images_dir = self.final_dir.join(IMAGES_DIR);
         if frames.images.len() != n {
             return Err(DataError::invalid(
                 &images_dir,
                 format!(
-                    "{} images written but {n} poses given; expected one image per pose",
+                    "{} images written but {n} {what} given; expected one image per frame",
                     frames.images.len()
                 ),
             ));
@@ -473,25 +598,6 @@ impl SequenceWriter {
                 ),
             ));
         }
-        if let Some(s) = sections
-            && s.len() != n
-        {
-            return Err(DataError::invalid(
-                self.final_dir.join(SECTIONS_FILE),
-                format!(
-                    "{} section labels for {n} frames; expected one per frame",
-                    s.len()
-                ),
-            ));
-        }
-        write_tum(&self.dir.join(POSES_FILE), poses)
-            .and_then(|()| match sections {
-                Some(s) => write_sections(&self.dir.join(SECTIONS_FILE), s),
-                None => Ok(()),
-            })
-            .map_err(|e| e.relocated(&self.dir, &self.final_dir))?;
-        sync_dir(&self.dir);
-        lock(&self.shared.sequences).insert(self.name.clone(), true);
         Ok(())
     }
 }

@@ -254,6 +254,7 @@ pub fn read_c3vd(src: &Path, config: &C3vdConfig) -> Result<ImportedSequence, Da
         })
         .collect();
     Ok(ImportedSequence {
+        posed: true,
         source: src.to_path_buf(),
         frames,
         depth_encoding: (!depth.is_empty()).then_some(DepthEncoding {

@@ -253,6 +253,7 @@ pub fn read_endoslam(src: &Path, config: &EndoSlamConfig) -> Result<ImportedSequ
             .collect(),
     };
     Ok(ImportedSequence {
+        posed: true,
         source: src.to_path_buf(),
         frames,
         depth_encoding: None,

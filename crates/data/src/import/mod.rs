@@ -66,6 +66,11 @@ pub struct ImportedSequence {
     pub camera: Camera,
     /// Remarks for the user (skipped frames, assumptions), one line each.
     pub notes: Vec<String>,
+    /// Whether the frames have poses. `false` for a recording without a pose log (a video
+    /// imported without one): each frame's `pose` then holds its time only (the pose is the
+    /// identity and never written), and the sequence is written with
+    /// [`FRAME_TIMES_FILE`](crate::FRAME_TIMES_FILE) instead of `poses.txt`.
+    pub posed: bool,
 }
 
 impl ImportedSequence {
@@ -84,8 +89,14 @@ pub struct WriteImportConfig {
     /// distortion into an ideal pinhole of the same size, focal lengths and principal point;
     /// the dataset's camera is then that pinhole. Ignored for a camera without distortion.
     pub undistort: bool,
-    /// Replace an existing dataset at the destination.
+    /// Replace an existing dataset at the destination (with `add`: the sequences of the same
+    /// names only).
     pub overwrite: bool,
+    /// When the destination is an existing dataset, add the sequences to it (its images must
+    /// be the size of the dataset's camera; a pass with other intrinsics gets its own
+    /// `camera.toml`) and record their provenance under `[source.NAME]`; the dataset's other
+    /// sequences and files are not touched.
+    pub add: bool,
     /// Provenance written to `dataset.toml` `[source]` (tool, command line, source paths…).
     pub source: toml::Table,
 }
@@ -415,13 +426,17 @@ fn write_frame(
 }
 
 /// Writes imported sequences as an endoloc dataset at `out` (images re-encoded as PNG, depth in
-/// the format's 16-bit PNG, poses as TUM `poses.txt`), frames in parallel.
+/// the format's 16-bit PNG, poses as TUM `poses.txt`, or the frame times as `frames.txt` for a
+/// recording without poses), frames in parallel; with `config.add` into an existing dataset at
+/// `out`, beside its sequences.
 ///
-/// All sequences must share one camera. The dataset appears at `out` only when everything was
-/// written (staging folder, see [`DatasetWriter`]).
+/// All sequences must share one camera. The dataset (an added sequence) appears at `out` only
+/// when everything was written (staging folder, see [`DatasetWriter`]).
 ///
 /// # Errors
-/// [`DataError::AlreadyExists`] when `out` exists and `config.overwrite` is false;
+/// [`DataError::AlreadyExists`] when `out` (an added sequence) exists and `config.overwrite`
+/// is false; [`DataError::Invalid`] for an added pass whose frames are not the size of the
+/// dataset's camera;
 /// [`DataError::Invalid`] for no sequences, differing cameras or an empty sequence;
 /// [`DataError::Image`] for an image of the wrong size or that cannot be decoded;
 /// [`DataError::Io`].
@@ -461,18 +476,53 @@ pub fn write_import(
         source_camera
     };
     let map = undistort.then(|| UndistortMap::new(&source_camera));
-    let mut meta = DatasetMeta::new(config.name.clone(), camera);
-    meta.source = config.source.clone();
-    if undistort {
-        meta.source.insert(
-            "undistorted".into(),
-            toml::Value::String(format!(
-                "images resampled (bilinear; depth nearest) from {:?} to the pinhole with the same fx fy cx cy",
-                source_camera.distortion
-            )),
-        );
+    let adding = config.add && out.join(crate::dataset::META_FILE).is_file();
+    if adding
+        && !config.overwrite
+        && let Some((name, _)) = sequences.iter().find(|(n, _)| out.join(n).exists())
+    {
+        return Err(DataError::AlreadyExists {
+            path: out.join(name),
+        });
     }
-    let writer = DatasetWriter::create(out, &meta, config.overwrite)?;
+    let writer = if adding {
+        let mut writer = DatasetWriter::add_to(out, config.overwrite)?;
+        let have = writer.meta().camera;
+        if (have.width, have.height) != (camera.width, camera.height) {
+            return Err(DataError::invalid(
+                &first.source,
+                format!(
+                    "frames of {}x{}; expected the size of the dataset's camera, {}x{} ({}): \
+                     resize them (video: `size`)",
+                    camera.width,
+                    camera.height,
+                    have.width,
+                    have.height,
+                    out.join(crate::dataset::META_FILE).display()
+                ),
+            ));
+        }
+        for (name, _) in sequences {
+            writer
+                .meta_mut()
+                .source
+                .insert(name.clone(), toml::Value::Table(config.source.clone()));
+        }
+        writer
+    } else {
+        let mut meta = DatasetMeta::new(config.name.clone(), camera);
+        meta.source = config.source.clone();
+        if undistort {
+            meta.source.insert(
+                "undistorted".into(),
+                toml::Value::String(format!(
+                    "images resampled (bilinear; depth nearest) from {:?} to the pinhole with the same fx fy cx cy",
+                    source_camera.distortion
+                )),
+            );
+        }
+        DatasetWriter::create(out, &meta, config.overwrite)?
+    };
     let mut written = Vec::new();
     for (name, s) in sequences {
         let seq = writer.sequence(name)?;
@@ -486,7 +536,15 @@ pub fn write_import(
             .collect();
         results.into_iter().collect::<Result<(), DataError>>()?;
         let has_depth = s.depth_encoding.is_some() && s.frames.iter().all(|f| f.depth.is_some());
-        seq.finish(&s.poses(), None)?;
+        if adding && camera != writer.meta().camera {
+            seq.write_camera(&camera)?;
+        }
+        if s.posed {
+            seq.finish(&s.poses(), None)?;
+        } else {
+            let times: Vec<f64> = s.frames.iter().map(|f| f.pose.timestamp_s).collect();
+            seq.finish_unposed(&times)?;
+        }
         written.push((name.clone(), s.frames.len(), has_depth));
     }
     let dir = writer.finish()?;

@@ -502,6 +502,7 @@ pub fn read_simcol3d(src: &Path, config: &SimCol3dConfig) -> Result<ImportedSequ
         });
     }
     Ok(ImportedSequence {
+        posed: true,
         source: frames_dir,
         frames,
         depth_encoding,

@@ -7,8 +7,10 @@
 //! in the same order (`-fps_mode passthrough`: no frame dropped or duplicated). The frame times
 //! are the video's clock; the pose log ([`super::tracker`]) is on its own, and the offset
 //! between the two is given or found from the images ([`VideoTime::Auto`]). Frames that get no
-//! pose (a dropout of the sensor, outside the log) are left out of the sequence — a dataset
-//! holds one pose per image — and listed in the notes with their time.
+//! pose (a dropout of the sensor, outside the log) are left out of the sequence — a posed
+//! sequence holds one pose per image — and listed in the notes with their time. A pass
+//! without a log keeps every frame with its time only (`frames.txt`): it can be localized,
+//! not evaluated.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -41,8 +43,9 @@ pub struct VideoConfig {
     /// The camera of the video's frames (a video carries no intrinsics); its size must be the
     /// frames'.
     pub camera: Camera,
-    /// The pose log of the pass.
-    pub log: PoseLog,
+    /// The pose log of the pass; `None` for a pass recorded without one: every frame is kept
+    /// (after `every` and `fps`) with its time only, to be localized, not evaluated.
+    pub log: Option<PoseLog>,
     /// The clock offset, or how to find it.
     pub time: VideoTime,
     /// A frame gets a pose only when valid log samples lie within this on both sides, seconds.
@@ -336,11 +339,14 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
             ),
         ));
     }
+    let Some(log) = &cfg.log else {
+        return Ok(unposed_import(video, camera, files, &times, cfg, scratch));
+    };
     // The camera's own path: its speed is what moves the image (a sensor a few millimetres
     // away moves differently whenever the scope turns).
     let log = match &cfg.sensor_to_camera {
-        Some(t_sc) => cfg.log.to_camera(t_sc),
-        None => cfg.log.clone(),
+        Some(t_sc) => log.to_camera(t_sc),
+        None => log.clone(),
     };
     let (offset_s, estimate) = match cfg.time {
         VideoTime::Offset(s) => (s, None),
@@ -358,7 +364,7 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
                          overlap by fewer than {} frames at every offset within ±{max_s} s",
                         times[0],
                         times[times.len() - 1],
-                        cfg.log.source.display(),
+                        log.source.display(),
                         search.min_frames
                     ),
                 )
@@ -374,15 +380,8 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
     let poses = poses_at(&log, &times, &resample);
     let mut frames = Vec::new();
     let mut unposed = Vec::new();
-    let mut next_kept = f64::NEG_INFINITY;
-    for (i, ((file, &t), pose)) in files.iter().zip(&times).zip(&poses).enumerate() {
-        if i % cfg.every != 0 || t < next_kept {
-            continue;
-        }
-        if let Some(fps) = cfg.fps {
-            // Half a millisecond of slack: container times are rounded.
-            next_kept = t + 1.0 / fps - 5e-4;
-        }
+    for i in kept_frames(&times, cfg) {
+        let (file, t, pose) = (&files[i], times[i], &poses[i]);
         match pose {
             Some(p) => frames.push(ImportedFrame {
                 image: file.clone(),
@@ -401,15 +400,15 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
             format!(
                 "no frame has a pose: the log {} covers {:.2}–{:.2} s, the video {:.2}–{:.2} s \
                  plus the offset {offset_s:.3} s",
-                cfg.log.source.display(),
-                cfg.log.samples[0].time_s,
-                cfg.log.samples[cfg.log.samples.len() - 1].time_s,
+                log.source.display(),
+                log.samples[0].time_s,
+                log.samples[log.samples.len() - 1].time_s,
                 times[0] + offset_s,
                 times[times.len() - 1] + offset_s
             ),
         ));
     }
-    let mut notes = cfg.log.notes.clone();
+    let mut notes = log.notes.clone();
     if let Some(e) = &estimate {
         notes.push(format!(
             "clock offset found from the images: log time = video time + {:.3} s (fit R {:.2}, \
@@ -436,12 +435,70 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
             depth_encoding: None,
             camera,
             notes,
+            posed: true,
         },
         offset_s,
         estimate,
         unposed,
         scratch,
     })
+}
+
+/// The frames kept by `every` and `fps`, indices into the decoded video.
+fn kept_frames(times: &[f64], cfg: &VideoConfig) -> Vec<usize> {
+    let mut kept = Vec::new();
+    let mut next_kept = f64::NEG_INFINITY;
+    for (i, &t) in times.iter().enumerate() {
+        if i % cfg.every != 0 || t < next_kept {
+            continue;
+        }
+        if let Some(fps) = cfg.fps {
+            // Half a millisecond of slack: container times are rounded.
+            next_kept = t + 1.0 / fps - 5e-4;
+        }
+        kept.push(i);
+    }
+    kept
+}
+
+/// A pass without a pose log: every kept frame with its time (the video's clock) and no pose.
+fn unposed_import(
+    video: &Path,
+    camera: Camera,
+    files: Vec<PathBuf>,
+    times: &[f64],
+    cfg: &VideoConfig,
+    scratch: Arc<tempfile::TempDir>,
+) -> VideoImport {
+    let frames = kept_frames(times, cfg)
+        .into_iter()
+        .map(|i| ImportedFrame {
+            image: files[i].clone(),
+            depth: None,
+            pose: StampedPose {
+                timestamp_s: times[i],
+                pose: Pose::identity(),
+            },
+        })
+        .collect();
+    VideoImport {
+        sequence: ImportedSequence {
+            source: video.to_path_buf(),
+            frames,
+            depth_encoding: None,
+            camera,
+            notes: vec![
+                "no pose log: the frames are kept with their times (frames.txt), to be \
+                 localized, not evaluated"
+                    .to_string(),
+            ],
+            posed: false,
+        },
+        offset_s: 0.0,
+        estimate: None,
+        unposed: Vec::new(),
+        scratch,
+    }
 }
 
 /// [`frame_motion`] between consecutive decoded frames (`NaN` for the first).

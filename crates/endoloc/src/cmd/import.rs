@@ -9,8 +9,10 @@ use endoloc_jobs::{ImportJob, Progress};
 /// mm, T_wc camera-to-world, OpenCV camera axes, TUM poses.txt, PNG images, 16-bit depth PNG).
 ///
 /// One recording becomes one sequence (default `train`); cut it into train/test with
-/// --split, or add a second recording of the same colon as `test` with --test.
-/// An existing output folder is never replaced unless --force.
+/// --split, or add a second recording of the same colon as `test` with --test. One recording
+/// imported into an existing dataset is added beside its sequences as --seq (its frames the
+/// size of the dataset's camera). Nothing is replaced unless --force: the whole folder, or
+/// when adding, the sequence of that name only.
 ///
 /// Examples:
 ///
@@ -30,6 +32,9 @@ use endoloc_jobs::{ImportJob, Progress};
 ///   endoloc import video pass1.mp4 --poses em1.csv --test pass2.mp4 --test-poses em2.csv \
 ///       --camera 1280,1024,700,700,639.5,511.5 --time-offset auto \
 ///       --sensor-to-camera hand_eye.txt --out data/mine
+///
+///   endoloc import video pass3.mp4 --camera 1280,1024,700,700,639.5,511.5 \
+///       --out data/mine --seq today     # no log: frames.txt, localized but not evaluated
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {

@@ -489,7 +489,8 @@ impl LocalizeJob {
             return self.run_baseline(progress);
         }
         let localizer = self.localizer()?.with_mask(dataset_mask(&self.seq)?);
-        let seq = Sequence::open(&self.seq)?;
+        // A pass without poses (frames.txt) is localized as any other.
+        let seq = Sequence::open_frames(&self.seq)?;
         let dataset = dataset_of(&self.seq)?;
         let classifier = localizer.classifier();
         classifier
@@ -780,7 +781,12 @@ impl LocalizeJob {
 
     /// A baseline: its estimates and `trajectory.txt`.
     fn run_baseline(&self, progress: &dyn Progress) -> Result<LocalizeReport> {
-        let seq = Sequence::open(&self.seq)?;
+        // Geometric VO is aligned to the pass's true poses; the others need only its frames.
+        let seq = if self.method == LocalizeMethod::Vo {
+            Sequence::open(&self.seq)?
+        } else {
+            Sequence::open_frames(&self.seq)?
+        };
         let camera = dataset_camera(&self.seq)?;
         let name = self.method.name();
         let model = || {
@@ -982,13 +988,8 @@ fn stamped(
     poses: impl Iterator<Item = Option<endoloc_geometry::Pose>>,
 ) -> Vec<StampedPose> {
     poses
-        .enumerate()
-        .filter_map(|(i, p)| {
-            p.map(|pose| StampedPose {
-                timestamp_s: seq.poses[i].timestamp_s,
-                pose,
-            })
-        })
+        .zip(seq.timestamps())
+        .filter_map(|(p, timestamp_s)| p.map(|pose| StampedPose { timestamp_s, pose }))
         .collect()
 }
 

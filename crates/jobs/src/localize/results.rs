@@ -121,7 +121,7 @@ impl ResultWriter {
             frames: LineFile::staged(staged, dest, FRAMES_FILE, &format!("{FRAMES_CSV_HEADER}\n"))?,
             inliers: LineFile::staged(staged, dest, INLIERS_FILE, "frame,x_px,y_px\n")?,
             along,
-            timestamps: Some(seq.poses.iter().map(|p| p.timestamp_s).collect()),
+            timestamps: Some(seq.timestamps()),
             next: 0,
             written: 0,
             line: String::with_capacity(256),
