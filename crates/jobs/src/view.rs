@@ -538,6 +538,13 @@ impl ViewJob {
                 );
             }
             Some(gt)
+        } else if seq.join(endoloc_data::FRAME_TIMES_FILE).is_file() {
+            missing.push(format!(
+                "errors: {} is a pass without poses ({})",
+                seq.display(),
+                endoloc_data::FRAME_TIMES_FILE
+            ));
+            None
         } else {
             missing.push(format!("errors: no {}", gt_path.display()));
             None
