@@ -106,10 +106,10 @@ impl DatasetWriter {
     /// only when `overwrite`.
     ///
     /// # Errors
-    /// [`DataError::Invalid`] when `dir` is not a dataset; errors reading its `dataset.toml`;
+    /// Errors reading `dir/dataset.toml` (none there: [`DataError::Io`]);
     /// [`DataError::Io`] if the staging folder cannot be created.
     pub fn add_to(dir: &Path, overwrite: bool) -> Result<Self, DataError> {
-        let meta = super::Dataset::open(dir)?.meta;
+        let meta = DatasetMeta::read(&dir.join(META_FILE))?;
         crate::fsutil::remove_stale_siblings(dir, "staging");
         let staging = hidden_sibling(dir, "staging");
         std::fs::create_dir(&staging).map_err(|e| DataError::io(&staging, e))?;
