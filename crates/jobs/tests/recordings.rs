@@ -332,6 +332,39 @@ fn a_pass_with_a_tracker_log_on_its_own_clock_imports_from_frames_and_from_video
         .filter(|i| !unposed.contains(i))
         .count();
     assert_eq!(kept.len(), every_other, "30 fps kept at 15");
+    // Every third frame: FFmpeg writes only those, each the frame of its time.
+    let thirds = ImportJob {
+        format: ImportFormat::Video,
+        src: root.join("pass.mp4"),
+        out: root.join("thirds"),
+        poses: Some(root.join("tracker.csv")),
+        camera: Some(camera.clone()),
+        time_offset: OFFSET_S.to_string(),
+        sensor_to_camera: Some(root.join("hand_eye.txt")),
+        every: 3,
+        ..ImportJob::default()
+    }
+    .run(&Silent)
+    .unwrap();
+    let thirds = endoloc_data::Dataset::open(&thirds.summary.dir)
+        .unwrap()
+        .sequence("train")
+        .unwrap();
+    assert!(thirds.len() >= seq.len() / 3 - unposed.len() && thirds.len() <= seq.len() / 3 + 1);
+    for (k, p) in thirds.poses.iter().enumerate() {
+        let frame = (p.timestamp_s * 30.0).round() as usize;
+        assert_eq!(frame % 3, 0, "frame {frame} kept");
+        let whole = exact
+            .poses
+            .iter()
+            .position(|q| q.timestamp_s == p.timestamp_s)
+            .expect("the same frame in the whole import");
+        assert_eq!(
+            thirds.load_rgb(k).unwrap(),
+            exact.load_rgb(whole).unwrap(),
+            "frame {frame}: the image of its time"
+        );
+    }
 
     // C3VD's pose.txt as the log (one camera pose per frame, column-major 4×4, no time
     // stamps): taken at the video's frame rate, each frame gets its own pose.

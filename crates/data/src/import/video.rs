@@ -3,8 +3,9 @@
 //!
 //! Decoding goes through the `ffmpeg` and `ffprobe` programs (Debian: `apt install ffmpeg`):
 //! `ffprobe` lists every video frame's presentation time (the container's, so a variable frame
-//! rate is respected), `ffmpeg` writes the frames as PNG into a scratch folder, one per frame,
-//! in the same order (`-fps_mode passthrough`: no frame dropped or duplicated). The frame times
+//! rate is respected), `ffmpeg` writes the frames kept by `every` / `fps` (its `select` filter;
+//! all of them when neither is set) as PNG into a scratch folder, in the same order
+//! (`-fps_mode passthrough`: no frame dropped or duplicated). The frame times
 //! are the video's clock; the pose log ([`super::tracker`]) is on its own, and the offset
 //! between the two is given or found from the images ([`VideoTime::Auto`]). Frames that get no
 //! pose (a dropout of the sensor, outside the log) are left out of the sequence — a posed
@@ -228,19 +229,34 @@ pub fn frame_size(video: &Path) -> Result<(u32, u32), DataError> {
     }
 }
 
-/// Decodes every frame of the first video stream into `dir` as `000000.png`, `000001.png`, …
-/// (RGB; the video's size, or `size` with FFmpeg's area filter), in decoding order; returns
-/// their paths.
+/// Decodes the frames of the first video stream into `dir` as `000000.png`, `000001.png`, …
+/// (RGB; the video's size, or `size` with FFmpeg's area filter), in decoding order — every
+/// frame, or only those at the 0-based indices `keep` (sorted; FFmpeg's `select` filter, so
+/// that a subsampled long video writes only what is kept) — and returns their paths. Every
+/// frame is decoded either way: a damaged one anywhere is an error.
 ///
 /// # Errors
-/// [`DataError::Invalid`] naming the video when `ffmpeg` is missing or fails.
+/// [`DataError::Invalid`] naming the video when `ffmpeg` is missing or fails;
+/// [`DataError::Io`] when the filter script cannot be written.
 pub fn decode_frames(
     video: &Path,
     dir: &Path,
     size: Option<(u32, u32)>,
+    keep: Option<&[usize]>,
 ) -> Result<Vec<PathBuf>, DataError> {
     let pattern = dir.join("%06d.png");
-    let scale = size.map(|(w, h)| format!("scale={w}:{h}:flags=area"));
+    let mut filters = Vec::new();
+    if let Some(keep) = keep {
+        filters.push(format!("select='{}'", select_expression(keep)));
+    }
+    if let Some((w, h)) = size {
+        filters.push(format!("scale={w}:{h}:flags=area"));
+    }
+    // The filter graph as a script file: a long selection does not fit on a command line.
+    let script = dir.join("filters.txt");
+    if !filters.is_empty() {
+        std::fs::write(&script, filters.join(",")).map_err(|e| DataError::io(&script, e))?;
+    }
     let mut args: Vec<&std::ffi::OsStr> = [
         std::ffi::OsStr::new("-v"),
         "error".as_ref(),
@@ -257,11 +273,8 @@ pub fn decode_frames(
         "0".as_ref(),
     ]
     .to_vec();
-    if let Some(filter) = &scale {
-        args.extend([
-            std::ffi::OsStr::new("-vf"),
-            std::ffi::OsStr::new(filter.as_str()),
-        ]);
+    if !filters.is_empty() {
+        args.extend([std::ffi::OsStr::new("-filter_script:v"), script.as_os_str()]);
     }
     args.push(pattern.as_os_str());
     run(video, "ffmpeg", &args)?;
@@ -272,6 +285,25 @@ pub fn decode_frames(
         .collect();
     files.sort();
     Ok(files)
+}
+
+/// An FFmpeg expression true for the frames numbered `keep` (sorted, not empty): a binary
+/// search of nested `if`s, evaluated one branch at a time — `O(log n)` a frame, and nested
+/// only `log2 n` deep (FFmpeg refuses a flat sum of more than about a hundred terms).
+fn select_expression(keep: &[usize]) -> String {
+    match keep {
+        [] => "0".to_string(),
+        [i] => format!("eq(n,{i})"),
+        _ => {
+            let (lo, hi) = keep.split_at(keep.len() / 2);
+            format!(
+                "if(lt(n,{}),{},{})",
+                hi[0],
+                select_expression(lo),
+                select_expression(hi)
+            )
+        }
+    }
 }
 
 /// Reads a video and its pose log as a recording (see the module docs).
@@ -321,26 +353,32 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
             scaled
         }
     };
-    let times = frame_times(video)?;
+    let all_times = frame_times(video)?;
     let scratch = Arc::new(
         tempfile::Builder::new()
             .prefix("endoloc-video-")
             .tempdir()
             .map_err(|e| DataError::io(std::env::temp_dir(), e))?,
     );
-    let files = decode_frames(video, scratch.path(), cfg.size)?;
-    if files.len() != times.len() {
+    // Only the frames kept by `every` and `fps` are written out, each with its index in the
+    // video and its time.
+    let kept = kept_frames(&all_times, cfg);
+    let select = (kept.len() < all_times.len()).then_some(kept.as_slice());
+    let files = decode_frames(video, scratch.path(), cfg.size, select)?;
+    if files.len() != kept.len() {
         return Err(DataError::invalid(
             video,
             format!(
-                "ffprobe lists {} frames but ffmpeg decoded {}; expected the same frames (a damaged file?)",
-                times.len(),
+                "ffprobe lists {} frames ({} kept) but ffmpeg wrote {}; expected the same frames (a damaged file?)",
+                all_times.len(),
+                kept.len(),
                 files.len()
             ),
         ));
     }
+    let times: Vec<f64> = kept.iter().map(|&i| all_times[i]).collect();
     let Some(log) = &cfg.log else {
-        return Ok(unposed_import(video, camera, files, &times, cfg, scratch));
+        return Ok(unposed_import(video, camera, files, &times, scratch));
     };
     // The camera's own path: its speed is what moves the image (a sensor a few millimetres
     // away moves differently whenever the scope turns).
@@ -380,8 +418,7 @@ pub fn read_video(video: &Path, cfg: &VideoConfig) -> Result<VideoImport, DataEr
     let poses = poses_at(&log, &times, &resample);
     let mut frames = Vec::new();
     let mut unposed = Vec::new();
-    for i in kept_frames(&times, cfg) {
-        let (file, t, pose) = (&files[i], times[i], &poses[i]);
+    for (((&i, file), &t), pose) in kept.iter().zip(&files).zip(&times).zip(&poses) {
         match pose {
             Some(p) => frames.push(ImportedFrame {
                 image: file.clone(),
@@ -461,22 +498,23 @@ fn kept_frames(times: &[f64], cfg: &VideoConfig) -> Vec<usize> {
     kept
 }
 
-/// A pass without a pose log: every kept frame with its time (the video's clock) and no pose.
+/// A pass without a pose log: each kept frame (`files`, at `times` on the video's clock) with
+/// no pose.
 fn unposed_import(
     video: &Path,
     camera: Camera,
     files: Vec<PathBuf>,
     times: &[f64],
-    cfg: &VideoConfig,
     scratch: Arc<tempfile::TempDir>,
 ) -> VideoImport {
-    let frames = kept_frames(times, cfg)
+    let frames = files
         .into_iter()
-        .map(|i| ImportedFrame {
-            image: files[i].clone(),
+        .zip(times)
+        .map(|(image, &timestamp_s)| ImportedFrame {
+            image,
             depth: None,
             pose: StampedPose {
-                timestamp_s: times[i],
+                timestamp_s,
                 pose: Pose::identity(),
             },
         })
