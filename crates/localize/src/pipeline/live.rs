@@ -108,9 +108,10 @@ impl Localizer {
         // A frame the motion model cannot track from is searched for in the candidate zones,
         // where features at the test threshold seldom suffice once the track is lost and the
         // frame is described again at the retry threshold: describe it once, at that one.
+        let prediction = self.predict_next(state);
         let t = Instant::now();
         let (features, retry) = match &self.retry_surf {
-            Some(dense) if !self.tracks_next(state) => {
+            Some(dense) if self.recent(prediction.as_ref()).is_none() => {
                 (dense.detect_and_describe(img)?, Retry::None)
             }
             _ => (self.surf.detect_and_describe(img)?, Retry::Image(img)),
@@ -119,13 +120,14 @@ impl Localizer {
             surf_ms: ms(t),
             ..Default::default()
         };
-        self.live_step(state, &features, retry, Zones::Image(img), times)
-    }
-
-    /// Whether the next frame of `state` is registered from the motion model's prediction
-    /// first ([`Localizer::recent`]).
-    fn tracks_next(&self, state: &LiveState) -> bool {
-        self.recent(self.predict_next(state).as_ref()).is_some()
+        self.live_step(
+            state,
+            prediction,
+            &features,
+            retry,
+            Zones::Image(img),
+            times,
+        )
     }
 
     /// The motion model's prediction of the next frame of `state`.
@@ -163,31 +165,37 @@ impl Localizer {
     ) -> Result<FrameResult, LocalizeError> {
         // As in `localize_live`: a frame the motion model cannot track from is registered
         // with the retry's features alone.
+        let prediction = self.predict_next(state);
         match retry {
-            Some(r) if !self.tracks_next(state) => {
+            Some(r) if self.recent(prediction.as_ref()).is_none() => {
                 let times = StageTimes {
                     surf_ms: r.surf_ms,
                     ..times
                 };
-                self.live_step(state, r.features, Retry::None, Zones::Ready(pred), times)
+                let zones = Zones::Ready(pred);
+                self.live_step(state, prediction, r.features, Retry::None, zones, times)
             }
-            _ => self.live_step(state, features, retry.into(), Zones::Ready(pred), times),
+            _ => {
+                let zones = Zones::Ready(pred);
+                self.live_step(state, prediction, features, retry.into(), zones, times)
+            }
         }
     }
 
-    /// One live frame: predict, register from the prediction, and when that fails classify,
+    /// One live frame, `prediction` the motion model's ([`Localizer::predict_next`], made
+    /// before `state` moves on): register from the prediction, and when that fails classify,
     /// fold the zone prediction into the filters and register (with the retry); gate the
     /// registration against the prediction, report the prediction for a frame without a
     /// trusted registration, and remember a refined pose.
     fn live_step(
         &self,
         state: &mut LiveState,
+        prediction: Option<Prediction>,
         features: &[Feature],
         retry: Retry<'_>,
         zones: Zones<'_>,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
-        let prediction = self.predict_next(state);
         let frame = state.frame;
         state.frame += 1;
         let tracked = if self.cfg.classify_tracked {
