@@ -289,6 +289,7 @@ def localize(
     neighbours: int = ...,
     threshold: float | None = ...,
     retry_threshold: float | None = ...,
+    keypoint_budget: float = ...,
     max_keypoints: int = ...,
     candidate_zones: int = ...,
     max_sigma_mm: float = ...,
@@ -344,11 +345,13 @@ def localize(
       mm.
     - ``neighbours``: Map points also come from this many zones on each side of the
       classified one.
-    - ``threshold``: SURF threshold on the test frames (`None`: twice the map's).
-    - ``retry_threshold``: Retry threshold for frames that register nowhere (`None`: the
-      map's; 0: off).
+    - ``threshold``: SURF threshold on the test frames (`None`: 0.4 × the map's).
+    - ``retry_threshold``: Retry threshold for frames that register nowhere, every
+      keypoint above it (`None`: twice the map's, per frame only; 0: off).
+    - ``keypoint_budget``: At most this × √(width × height) SURF keypoints per test frame,
+      the strongest (0: no budget).
     - ``max_keypoints``: At most this many SURF keypoints per test frame, the strongest
-      (0: all).
+      (0: no fixed cap).
     - ``candidate_zones``: Zones tried, best score first, until one registers (1 = the
       paper's rule).
     - ``max_sigma_mm``: Validity: largest position uncertainty (1σ) of a refined pose,

@@ -205,6 +205,7 @@ class Localizer:
         neighbours: int = ...,
         threshold: float | None = ...,
         retry_threshold: float | None = ...,
+        keypoint_budget: float = ...,
         max_keypoints: int = ...,
         candidate_zones: int = ...,
         max_sigma_mm: float = ...,

@@ -179,19 +179,19 @@ pub(super) fn ensure_map(
     Ok(())
 }
 
-/// SURF features of every test frame, extracted once: at the localizer's test-frame
-/// threshold and, when the retry is on, at its retry threshold
-/// ([`endoloc_localize::LocalizerConfig::retry_threshold`]).
+/// SURF features of every test frame, extracted once: with the localizer's test-frame
+/// settings and, when the retry is on, its retry's
+/// ([`endoloc_localize::LocalizerConfig::retry_surf`]).
 pub(super) struct FeatureCache {
     /// The SURF settings of the test frames.
     pub surf: SurfConfig,
-    /// The retry threshold (0: no retry features).
-    pub retry_threshold: f32,
+    /// The retry's SURF settings (`None`: no retry features).
+    pub retry_surf: Option<SurfConfig>,
     /// Features per frame.
     pub features: Vec<Vec<Feature>>,
     /// Extraction time per frame, ms (one thread per frame).
     pub surf_ms: Vec<f64>,
-    /// Features per frame at the retry threshold (empty when the retry is off).
+    /// Features per frame with the retry's settings (empty when the retry is off).
     pub retry: Vec<Vec<Feature>>,
     /// Their extraction time, ms.
     pub retry_ms: Vec<f64>,
@@ -200,12 +200,11 @@ pub(super) struct FeatureCache {
 }
 
 impl FeatureCache {
-    /// Extracts the features of `seq` with `surf`, and at `retry_threshold` when that is
-    /// positive and below `surf`'s.
+    /// Extracts the features of `seq` with `surf`, and with `retry_surf` when there is one.
     pub fn extract(
         seq: &Sequence,
         surf: &SurfConfig,
-        retry_threshold: f32,
+        retry_surf: Option<&SurfConfig>,
         progress: &dyn Progress,
     ) -> Result<Self> {
         let mask = endoloc_jobs::localize::dataset_mask(&seq.dir)?;
@@ -214,9 +213,8 @@ impl FeatureCache {
             .init()
             .context("SURF settings")?
             .with_mask(mask.clone());
-        let retry_threshold = effective_retry(surf, retry_threshold);
-        let retry = (retry_threshold > 0.0)
-            .then(|| surf.clone().with_threshold(retry_threshold).init())
+        let retry = retry_surf
+            .map(|s| s.clone().init())
             .transpose()
             .context("SURF retry settings")?
             .map(|s| s.with_mask(mask));
@@ -245,7 +243,7 @@ impl FeatureCache {
         bar.finish_and_clear();
         let (primary, dense): (Vec<Timed>, Vec<Timed>) = out?.into_iter().unzip();
         let (features, surf_ms) = primary.into_iter().unzip();
-        let (retry, retry_ms) = if retry_threshold > 0.0 {
+        let (retry, retry_ms) = if retry_surf.is_some() {
             dense.into_iter().unzip()
         } else {
             (Vec::new(), Vec::new())
@@ -256,7 +254,7 @@ impl FeatureCache {
         )?;
         Ok(Self {
             surf: surf.clone(),
-            retry_threshold,
+            retry_surf: retry_surf.cloned(),
             features,
             surf_ms,
             retry,
@@ -275,13 +273,12 @@ impl FeatureCache {
     ) -> Result<&'a FeatureCache> {
         let cfg = LocalizerConfig::default();
         let surf = cfg.test_surf(map_surf);
-        let retry_threshold = cfg.retry_threshold_for(map_surf);
-        let retry = effective_retry(&surf, retry_threshold);
+        let retry = cfg.retry_surf(map_surf);
         if cache
             .as_ref()
-            .is_none_or(|c| c.surf != surf || c.retry_threshold != retry)
+            .is_none_or(|c| c.surf != surf || c.retry_surf != retry)
         {
-            *cache = Some(Self::extract(seq, &surf, retry_threshold, progress)?);
+            *cache = Some(Self::extract(seq, &surf, retry.as_ref(), progress)?);
         }
         cache.as_ref().context("feature cache")
     }
@@ -292,15 +289,6 @@ impl FeatureCache {
             features: f,
             surf_ms: self.retry_ms[i],
         })
-    }
-}
-
-/// The retry threshold in use: `retry` when positive and below `surf`'s threshold, else 0.
-fn effective_retry(surf: &SurfConfig, retry: f32) -> f32 {
-    if retry > 0.0 && retry < surf.threshold {
-        retry
-    } else {
-        0.0
     }
 }
 
@@ -353,7 +341,7 @@ pub(super) fn run_endoloc(
             ConfirmConfig::default()
         },
         surf: Some(features.surf.clone()),
-        retry_threshold: Some(features.retry_threshold),
+        retry_threshold: Some(features.retry_surf.as_ref().map_or(0.0, |s| s.threshold)),
         ..LocalizerConfig::default()
     };
     let localizer = Localizer::new(classifier, map, cfg)?;

@@ -154,7 +154,7 @@ impl PerturbJob {
                 ..LocalizerConfig::default()
             },
         )?;
-        let features = FeatureCache::extract(&data.test, &surf, 0.0, progress)?;
+        let features = FeatureCache::extract(&data.test, &surf, None, progress)?;
         let frames: Vec<usize> = (0..data.test.len()).step_by(args.every.max(1)).collect();
         let max = args.max as i64;
         let bar = bar(

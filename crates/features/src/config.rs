@@ -67,6 +67,16 @@ pub struct SurfConfig {
     /// orientation and description; 0 = keep all. A cap bounds the time per frame on richly
     /// textured frames (description and matching grow with the count). Default 0.
     pub max_keypoints: usize,
+    /// Keep only the strongest keypoints, at most `keypoint_budget · √(width · height)` of
+    /// them for a `width × height` image (2.0: 554 at 320×240, 1 109 at 640×480), before
+    /// orientation and description; 0 = no budget. With a low [`SurfConfig::threshold`] this
+    /// is a keypoint budget per frame instead of a fixed threshold: a sharp, well-lit frame
+    /// keeps its strongest keypoints, a blurred or dim one (whose responses all fall) keeps
+    /// what a fixed threshold would lose. The count grows with the image's side, not its
+    /// area, as SURF's keypoints do on the same scene at a finer resolution. Applied together
+    /// with [`SurfConfig::max_keypoints`] (the smaller cap wins). Default 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub keypoint_budget: f32,
     /// Compute the filter responses sample by sample at every level, the detector's plain
     /// reference loop, instead of in vectorised rows with the outer levels of each octave
     /// evaluated on demand. The keypoints are the same bit for bit; it is there to measure
@@ -157,6 +167,7 @@ impl Default for SurfConfig {
             parallel: true,
             max_pixels: 1 << 24,
             max_keypoints: 0,
+            keypoint_budget: 0.0,
             reference_filters: false,
             intensity: Intensity::Linear,
         }
@@ -182,6 +193,11 @@ impl SurfConfig {
     /// Sets [`SurfConfig::max_keypoints`].
     pub fn with_max_keypoints(mut self, max_keypoints: usize) -> Self {
         self.max_keypoints = max_keypoints;
+        self
+    }
+    /// Sets [`SurfConfig::keypoint_budget`].
+    pub fn with_keypoint_budget(mut self, keypoint_budget: f32) -> Self {
+        self.keypoint_budget = keypoint_budget;
         self
     }
     /// Sets [`SurfConfig::initial_step`].
@@ -215,6 +231,19 @@ impl SurfConfig {
         self
     }
 
+    /// The most keypoints kept in a `width × height` image ([`SurfConfig::max_keypoints`] and
+    /// [`SurfConfig::keypoint_budget`], the smaller); `None` = all.
+    pub fn keypoint_cap(&self, width: usize, height: usize) -> Option<usize> {
+        let budget = (self.keypoint_budget > 0.0).then(|| {
+            (self.keypoint_budget as f64 * ((width * height) as f64).sqrt()).round() as usize
+        });
+        let fixed = (self.max_keypoints > 0).then_some(self.max_keypoints);
+        match (budget, fixed) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
     /// Length of the descriptors this configuration produces: 64, or 128 when extended.
     pub fn descriptor_len(&self) -> usize {
         if self.extended { 128 } else { 64 }
@@ -243,6 +272,9 @@ impl SurfConfig {
         if !(1..=8).contains(&self.initial_step) {
             return bad("initial_step", "must be in 1..=8");
         }
+        if !self.keypoint_budget.is_finite() || self.keypoint_budget < 0.0 {
+            return bad("keypoint_budget", "must be a finite number ≥ 0");
+        }
         if self.max_pixels == 0 {
             return bad("max_pixels", "must be > 0");
         }
@@ -257,4 +289,8 @@ impl SurfConfig {
         self.validate()?;
         Ok(crate::Surf::from_validated(self))
     }
+}
+
+fn is_zero(v: &f32) -> bool {
+    *v == 0.0
 }

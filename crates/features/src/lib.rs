@@ -247,8 +247,9 @@ impl Surf {
         if let Some(m) = &self.mask {
             kps.retain(|kp| m.contains_disc(kp.x, kp.y, mask::DETECTOR_REACH_PER_SCALE * kp.scale));
         }
-        let cap = self.config.max_keypoints;
-        if cap > 0 && kps.len() > cap {
+        if let Some(cap) = self.config.keypoint_cap(ii.width(), ii.height())
+            && kps.len() > cap
+        {
             // Strongest first; ties broken by position so the result does not depend on the
             // detector's (parallel) output order.
             kps.sort_by(|a, b| {

@@ -62,16 +62,52 @@ fn blobs_are_found_at_their_position_and_scale() {
     }
 }
 
-#[test]
-fn max_keypoints_keeps_the_strongest() {
-    // A grid of blobs of different contrast: the cap must keep the highest responses.
-    let img = GrayImage::from_fn(256, 256, |x, y| {
+/// A 256 × 256 grid of blobs of different contrast, scaled by `gain`.
+fn blob_grid(gain: f32) -> GrayImage {
+    GrayImage::from_fn(256, 256, |x, y| {
         let (cx, cy) = ((x / 32) as f32 * 32.0 + 16.0, (y / 32) as f32 * 32.0 + 16.0);
         let contrast = 40.0 + 20.0 * ((x / 32 + 3 * (y / 32)) % 8) as f32;
         let (dx, dy) = (x as f32 - cx, y as f32 - cy);
         let g = (-(dx * dx + dy * dy) / (2.0 * 16.0)).exp();
-        image::Luma([(60.0 + contrast * g) as u8])
-    });
+        image::Luma([(gain * (60.0 + contrast * g)) as u8])
+    })
+}
+
+#[test]
+fn a_keypoint_budget_keeps_a_dim_frame_its_keypoints() {
+    let count = |cfg: SurfConfig, img: &GrayImage| cfg.init().unwrap().detect(img).unwrap().len();
+    let (bright, dim) = (blob_grid(1.0), blob_grid(0.3));
+    // A fixed threshold loses most of the dim frame's keypoints.
+    let fixed = SurfConfig::default().with_threshold(400.0);
+    let (b, d) = (count(fixed.clone(), &bright), count(fixed, &dim));
+    assert!(b > 20 && d * 2 < b, "fixed threshold: {b} bright, {d} dim");
+    // A budget of 0.1 · √(256 · 256) = 26 keypoints above a low threshold keeps both frames to
+    // the same count; a fixed cap below it wins.
+    let budget = SurfConfig::default()
+        .with_threshold(5.0)
+        .with_keypoint_budget(0.1);
+    assert_eq!(budget.keypoint_cap(256, 256), Some(26));
+    assert_eq!(
+        budget.keypoint_cap(1024, 1024),
+        Some(102),
+        "grows with the side"
+    );
+    assert_eq!(count(budget.clone(), &bright), 26);
+    assert_eq!(count(budget.clone(), &dim), 26);
+    assert_eq!(count(budget.with_max_keypoints(10), &dim), 10);
+    assert_eq!(SurfConfig::default().keypoint_cap(256, 256), None);
+    assert!(
+        SurfConfig::default()
+            .with_keypoint_budget(-1.0)
+            .init()
+            .is_err()
+    );
+}
+
+#[test]
+fn max_keypoints_keeps_the_strongest() {
+    // A grid of blobs of different contrast: the cap must keep the highest responses.
+    let img = blob_grid(1.0);
     let all = SurfConfig::default()
         .with_threshold(50.0)
         .init()

@@ -22,7 +22,8 @@ pub use crate::map_point::MapPoint;
 /// SURF threshold of the maps (units of MATLAB's `MetricThreshold`). The paper used 200; on
 /// 640×480 simulated frames a lower threshold gives denser maps and more registered frames
 /// (`paper` preset, live: 200 → 42 map points per zone and 22 % refined; 50 → 446 and 94.4 %;
-/// 25 → 962 and 95.4 %), so 25 is the default. Test frames use twice it, retried at it.
+/// 25 → 962 and 95.4 %), so 25 is the default. Test frames keep a keypoint budget above
+/// 0.4 times it ([`crate::TEST_KEYPOINT_BUDGET`]).
 pub const DEFAULT_MAP_THRESHOLD: f32 = 25.0;
 
 /// How maps are built.

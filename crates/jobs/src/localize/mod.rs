@@ -188,14 +188,22 @@ pub struct LocalizeJob {
     /// Map points also come from this many zones on each side of the classified one.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().neighbours))]
     pub neighbours: usize,
-    /// SURF threshold on the test frames (default: twice the map's).
+    /// SURF threshold on the test frames (default: 0.4 × the map's; the keypoint budget keeps
+    /// a sharp frame to its strongest keypoints).
     #[cfg_attr(feature = "cli", arg(long))]
     pub threshold: Option<f32>,
-    /// A frame that registers nowhere is described again at this lower SURF threshold and
-    /// tried once more (default: the map's threshold; 0: off).
+    /// A frame that registers nowhere is described again with every keypoint above this SURF
+    /// threshold (no budget) and tried once more (default: twice the map's, per frame only;
+    /// given, live too; 0: off).
     #[cfg_attr(feature = "cli", arg(long))]
     pub retry_threshold: Option<f32>,
-    /// Keep at most this many SURF keypoints per test frame, the strongest (0: all).
+    /// Keypoint budget of a test frame: at most this × √(width × height) SURF keypoints, the
+    /// strongest (2: 554 at 320×240, 1109 at 640×480; 0: no budget, every keypoint above the
+    /// threshold).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().keypoint_budget))]
+    pub keypoint_budget: f32,
+    /// Keep at most this many SURF keypoints per test frame, the strongest (0: no fixed cap;
+    /// with the keypoint budget the smaller cap wins).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().max_keypoints))]
     pub max_keypoints: usize,
     /// Zones tried (best classifier score first) until one registers; 1 = trust the top zone
@@ -283,6 +291,7 @@ impl Default for LocalizeJob {
             neighbours: cfg.neighbour_zones,
             threshold: cfg.surf.as_ref().map(|s| s.threshold),
             retry_threshold: cfg.retry_threshold,
+            keypoint_budget: endoloc_localize::TEST_KEYPOINT_BUDGET,
             max_keypoints: 0,
             candidate_zones: cfg.candidate_zones,
             max_sigma_mm: validity.max_position_sigma_mm,
@@ -335,12 +344,16 @@ impl LocalizeJob {
     /// is given.
     pub fn localizer_config(&self, map_surf: &endoloc_features::SurfConfig) -> LocalizerConfig {
         let base = LocalizerConfig::default();
-        let surf = if self.threshold.is_some() || self.max_keypoints > 0 {
+        let surf = if self.threshold.is_some()
+            || self.max_keypoints > 0
+            || self.keypoint_budget != endoloc_localize::TEST_KEYPOINT_BUDGET
+        {
             let mut s = base.test_surf(map_surf);
             if let Some(t) = self.threshold {
                 s.threshold = t;
             }
             s.max_keypoints = self.max_keypoints;
+            s.keypoint_budget = self.keypoint_budget;
             Some(s)
         } else {
             None

@@ -9,13 +9,32 @@ use crate::colon_scale::ColonScaleConfig;
 use crate::confirm::ConfirmConfig;
 use crate::motion::MotionConfig;
 
+/// The test frames' SURF threshold by default, as a multiple of the map's: low (10 for the
+/// default map threshold of 25), so that a frame whose responses all fall — blurred, dimmer,
+/// fainter texture than the mapping pass — still has keypoints; [`TEST_KEYPOINT_BUDGET`]
+/// keeps a sharp frame to its strongest ones.
+pub const TEST_THRESHOLD_FACTOR: f32 = 0.4;
+
+/// The test frames' keypoint budget by default ([`SurfConfig::keypoint_budget`]): at most
+/// 2·√(width·height) keypoints, the strongest (554 at 320×240, 1 109 at 640×480), about
+/// twice what a textured frame has at twice the map's threshold. Against that fixed
+/// threshold (and its retry at the map's), over five procedural colons and the CT colon
+/// (`small` preset, live): the unchanged pass 95.6 → 95.7 % refined, median 0.27 → 0.22 mm,
+/// refined frames more than 5 mm off 0.7 → 0.1 %; blurred (`moderate`) 80.2 → 85.4 %; every
+/// `moderate` look change 25.9 → 40.2 %; about 1 ms more per frame (docs/RESULTS.md).
+pub const TEST_KEYPOINT_BUDGET: f32 = 2.0;
+
+/// The retry's SURF threshold by default ([`LocalizerConfig::retry_threshold`]), as a
+/// multiple of the map's.
+pub const RETRY_THRESHOLD_FACTOR: f32 = 2.0;
+
 /// Settings of the localizer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LocalizerConfig {
-    /// SURF on the test frames. `None` (default): the map's own SURF settings at twice the
-    /// map's threshold (the stronger features: cheaper to detect and match). Any descriptor
-    /// setting (`extended`, `upright`) must match the map's for the matching to mean anything.
+    /// SURF on the test frames. `None` (default): the map's own SURF settings with a keypoint
+    /// budget ([`LocalizerConfig::test_surf`]). Any descriptor setting (`extended`, `upright`)
+    /// must match the map's for the matching to mean anything.
     pub surf: Option<SurfConfig>,
     /// Matching test features to map points.
     pub matcher: MatcherConfig,
@@ -57,10 +76,14 @@ pub struct LocalizerConfig {
     /// refined pose, so what a tracked frame's classification would have told them is
     /// overwritten at once; skipping it saves the network's time on most frames.
     pub classify_tracked: bool,
-    /// A frame that registers nowhere with features at the test threshold is described again
-    /// at this lower SURF threshold and tried once more (beyond the paper; its time counts in
-    /// the frame's SURF time). `None` (default): the map's threshold. `Some(0.0)`, or a value
-    /// not below the test threshold, = off.
+    /// A frame that registers nowhere with its test features is described again with every
+    /// keypoint above this SURF threshold (no budget) and tried once more (beyond the paper;
+    /// its time counts in the frame's SURF time). `None` (default): twice the map's threshold
+    /// — the strongest keypoints alone, among which brute-force matching against three zones'
+    /// points finds fewer look-alikes than among a budget's weaker ones — per frame only:
+    /// live, a lost frame is not described twice. `Some(t)`: at `t` in both modes, and a live
+    /// stream that has lost its track describes each frame once, at `t`, when `t` is below
+    /// the test threshold. `Some(0.0)`: off.
     pub retry_threshold: Option<f32>,
     /// Calibration of the reported uncertainty: the standard deviations in `frames.csv` are
     /// this many times those of the Gauss-Newton covariance (which sees only the test
@@ -119,16 +142,38 @@ impl Default for LocalizerConfig {
 
 impl LocalizerConfig {
     /// The SURF settings of the test frames for a map built with `map_surf`: [`Self::surf`], or
-    /// the map's at twice its threshold.
+    /// the map's at [`TEST_THRESHOLD_FACTOR`] × its threshold with the
+    /// [`TEST_KEYPOINT_BUDGET`] ([`SurfConfig::keypoint_budget`]).
     pub fn test_surf(&self, map_surf: &SurfConfig) -> SurfConfig {
-        self.surf
-            .clone()
-            .unwrap_or_else(|| map_surf.clone().with_threshold(2.0 * map_surf.threshold))
+        self.surf.clone().unwrap_or_else(|| {
+            map_surf
+                .clone()
+                .with_threshold(TEST_THRESHOLD_FACTOR * map_surf.threshold)
+                .with_keypoint_budget(TEST_KEYPOINT_BUDGET)
+        })
     }
 
-    /// The retry threshold for a map built with `map_surf` (0 = off): [`Self::retry_threshold`],
-    /// or the map's threshold.
-    pub fn retry_threshold_for(&self, map_surf: &SurfConfig) -> f32 {
-        self.retry_threshold.unwrap_or(map_surf.threshold)
+    /// The SURF settings of the retry for a map built with `map_surf`
+    /// ([`Self::retry_threshold`]: every keypoint above it, no budget), `None` when off or
+    /// when they would be the test frames' own.
+    pub fn retry_surf(&self, map_surf: &SurfConfig) -> Option<SurfConfig> {
+        let test = self.test_surf(map_surf);
+        let threshold = self
+            .retry_threshold
+            .unwrap_or(RETRY_THRESHOLD_FACTOR * map_surf.threshold);
+        let retry = test
+            .clone()
+            .with_threshold(threshold)
+            .with_keypoint_budget(0.0)
+            .with_max_keypoints(0);
+        (threshold > 0.0 && retry != test).then_some(retry)
+    }
+
+    /// Whether a live stream retries too ([`Self::retry_threshold`]): only with a retry
+    /// threshold given, and below the test frames'. Then a frame that the motion model
+    /// cannot track from is described once, at the retry threshold.
+    pub fn retry_live(&self, map_surf: &SurfConfig) -> bool {
+        self.retry_threshold
+            .is_some_and(|t| t > 0.0 && t < self.test_surf(map_surf).threshold)
     }
 }

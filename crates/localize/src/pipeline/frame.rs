@@ -28,6 +28,8 @@ pub struct Localizer {
     pub(super) surf: Surf,
     /// SURF at [`LocalizerConfig::retry_threshold`](crate::LocalizerConfig::retry_threshold), when that is on.
     pub(super) retry_surf: Option<Surf>,
+    /// Whether live frames retry too ([`LocalizerConfig::retry_live`](crate::LocalizerConfig::retry_live)).
+    pub(super) retry_live: bool,
     pub(super) matcher: Matcher,
     /// The live motion gate for this model's training pass.
     pub(super) gate: Gate,
@@ -127,14 +129,12 @@ impl Localizer {
                 cfg.uncertainty_scale
             )));
         }
-        let test_surf = cfg.test_surf(&map.config.surf);
-        let retry = cfg.retry_threshold_for(&map.config.surf);
-        let surf = test_surf.clone().init()?;
-        let retry_surf = if retry > 0.0 && retry < test_surf.threshold {
-            Some(test_surf.with_threshold(retry).init()?)
-        } else {
-            None
-        };
+        let surf = cfg.test_surf(&map.config.surf).init()?;
+        let retry_surf = cfg
+            .retry_surf(&map.config.surf)
+            .map(|s| s.init())
+            .transpose()?;
+        let retry_live = retry_surf.is_some() && cfg.retry_live(&map.config.surf);
         let matcher = Matcher::new(cfg.matcher.clone());
         let gate = Gate::new(&cfg.motion, classifier.train_poses());
         let colon_scale = match cfg.colon_scale {
@@ -162,6 +162,7 @@ impl Localizer {
             cfg,
             surf,
             retry_surf,
+            retry_live,
             matcher,
         })
     }

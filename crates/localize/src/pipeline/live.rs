@@ -105,16 +105,18 @@ impl Localizer {
         // A refused frame must not advance the stream, and a tracked frame is never
         // classified: its size is checked first.
         self.classifier.check_image(img)?;
-        // A frame the motion model cannot track from is searched for in the candidate zones,
-        // where features at the test threshold seldom suffice once the track is lost and the
-        // frame is described again at the retry threshold: describe it once, at that one.
+        // Live frames retry only with a retry threshold below the test frames' (see
+        // `LocalizerConfig::retry_live`); then a frame the motion model cannot track from is
+        // searched for in the candidate zones, where features at the test threshold seldom
+        // suffice once the track is lost: it is described once, at the retry threshold.
         let prediction = self.predict_next(state);
         let t = Instant::now();
         let (features, retry) = match &self.retry_surf {
-            Some(dense) if self.recent(prediction.as_ref()).is_none() => {
-                (dense.detect_and_describe(img)?, Retry::None)
-            }
-            _ => (self.surf.detect_and_describe(img)?, Retry::Image(img)),
+            Some(dense) if self.retry_live => match self.recent(prediction.as_ref()) {
+                None => (dense.detect_and_describe(img)?, Retry::None),
+                Some(_) => (self.surf.detect_and_describe(img)?, Retry::Image(img)),
+            },
+            _ => (self.surf.detect_and_describe(img)?, Retry::None),
         };
         let times = StageTimes {
             surf_ms: ms(t),
@@ -149,9 +151,10 @@ impl Localizer {
 
     /// [`Localizer::localize_live`] for a frame already classified (`pred`, not yet folded
     /// into the filter; `times.zone_ms` its time, reported only when the frame needs it) and
-    /// described (`features`, and `retry` as in [`Localizer::localize_features`]; a frame the
-    /// motion model cannot track from uses `retry`'s features alone, as [`Localizer::localize_live`]
-    /// does).
+    /// described (`features`, and `retry` as in [`Localizer::localize_features`], used only
+    /// when live frames retry — [`LocalizerConfig::retry_live`](crate::LocalizerConfig::retry_live) —
+    /// and then alone for a frame the motion model cannot track from, as
+    /// [`Localizer::localize_live`] does).
     ///
     /// # Errors
     /// As [`Localizer::localize_features`].
@@ -163,9 +166,10 @@ impl Localizer {
         pred: &ZonePrediction,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
-        // As in `localize_live`: a frame the motion model cannot track from is registered
-        // with the retry's features alone.
+        // As in `localize_live`: live frames retry only when `retry_live`; then a frame the
+        // motion model cannot track from is registered with the retry's features alone.
         let prediction = self.predict_next(state);
+        let retry = retry.filter(|_| self.retry_live);
         match retry {
             Some(r) if self.recent(prediction.as_ref()).is_none() => {
                 let times = StageTimes {

@@ -4,7 +4,8 @@
 //!    track filter over training frames, [`endoloc_net::track`], anchored at each refined
 //!    pose; the zone-level HMM for predictions without a descriptor).
 //! 2. **Initial pose**: the zone's median training pose.
-//! 3. **Registration**: SURF on the frame, matched (ratio test, mutual nearest, Laplacian
+//! 3. **Registration**: SURF on the frame (beyond the paper: a keypoint budget per frame at a
+//!    low threshold, [`LocalizerConfig::test_surf`]), matched (ratio test, mutual nearest, Laplacian
 //!    gating) to the map points of the zone and its `neighbour_zones` neighbours on each side.
 //! 4. **Refinement and check**: [`endoloc_geometry::localize_pose`] — Gauss-Newton on SE(3)
 //!    with left perturbation from the prior, a RANSAC restart when the prior is poor, and the
@@ -14,12 +15,14 @@
 //! confirmed against all map points near its pose ([`confirm`](mod@crate::confirm)): refined again from
 //! them, or flagged `unsupported`, `weakly_supported` or `ambiguous`.
 //!
-//! Beyond the paper, a frame that registers nowhere is described again at a lower SURF
-//! threshold and tried once more ([`LocalizerConfig::retry_threshold`]): weakly textured
-//! frames get the features they need, while the typical frame keeps the cheaper detection. A
-//! live stream that has lost its track (no refined frame recent enough to register from the
-//! motion model's prediction) describes each frame once, at the lower threshold: there the
-//! first attempt seldom registers, and a lost frame costs about a third less.
+//! Test frames keep their strongest keypoints up to a budget that grows with the image's side,
+//! above a threshold well below the map's ([`TEST_KEYPOINT_BUDGET`]): a sharp frame
+//! is described as with a high threshold, a blurred, dim or faint one (all of whose responses
+//! fall, as on a pass through a changed colon) keeps the keypoints a fixed threshold would
+//! lose. Per frame, a frame that registers nowhere is described again with its strongest
+//! keypoints alone (every keypoint above twice the map's threshold,
+//! [`LocalizerConfig::retry_threshold`]) and tried once more: brute-force matching finds
+//! fewer look-alikes among them.
 
 mod config;
 mod frame;
@@ -27,7 +30,9 @@ mod live;
 mod result;
 mod scale;
 
-pub use config::LocalizerConfig;
+pub use config::{
+    LocalizerConfig, RETRY_THRESHOLD_FACTOR, TEST_KEYPOINT_BUDGET, TEST_THRESHOLD_FACTOR,
+};
 pub use frame::{Localizer, RetryFeatures};
 pub use live::LiveState;
 pub use result::{FrameResult, PoseSource, StageTimes};
