@@ -135,8 +135,8 @@ def compare(
     - ``zones``: Zones: a count (uniform), or `expert` / `expert:N` (anatomical).
     - ``epochs``: Training epochs of the learned models (default: each schedule's own).
     - ``seed``: Seed of every training.
-    - ``threshold``: SURF threshold of the maps; test frames are described at twice it
-      and retried at it
+    - ``threshold``: SURF threshold of the maps; test frames keep their strongest keypoints
+      above 0.4 times it (a budget per frame, as the localize job does by default)
     - ``model``: Use this trained Siamese model (with or without a map) instead of
       training one.
     - ``methods``: Methods to run (default: all).
@@ -179,8 +179,8 @@ def zones(
     - ``runs``: Runs (training seeds 0, 1, …) per zone count.
     - ``epochs``: Training epochs per run (the `fast` schedule with fewer epochs, to fit
       a night).
-    - ``threshold``: SURF threshold of the maps; test frames are described at twice it
-      and retried at it
+    - ``threshold``: SURF threshold of the maps; test frames keep their strongest keypoints
+      above 0.4 times it (a budget per frame, as the localize job does by default)
     - ``candidate_zones``: Zones tried per frame (1 = the paper's rule).
     - ``keep_models``: Keep each run's model folder (weights, descriptors) instead of
       deleting it once the run is recorded.
@@ -221,8 +221,8 @@ def expert(
     - ``sweep``: Take the uniform count from a finished zone sweep (its best median).
     - ``epochs``: Training epochs (default: the `fast` schedule's).
     - ``seed``: Training seed.
-    - ``threshold``: SURF threshold of the maps; test frames are described at twice it
-      and retried at it
+    - ``threshold``: SURF threshold of the maps; test frames keep their strongest keypoints
+      above 0.4 times it (a budget per frame, as the localize job does by default)
     - ``force``: Use an output folder that holds something else.
     """
     ...

@@ -38,8 +38,8 @@ pub struct CompareJob {
     /// Seed of every training.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = CompareJob::default().seed))]
     pub seed: u64,
-    /// SURF threshold of the maps; test frames are described at twice it and retried at it
-    /// (as the localize job does by default).
+    /// SURF threshold of the maps; test frames keep their strongest keypoints above 0.4 times
+    /// it (a budget per frame, as the localize job does by default).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = CompareJob::default().threshold))]
     pub threshold: f32,
     /// Use this trained Siamese model (with or without a map) instead of training one.

@@ -45,8 +45,8 @@ pub struct ZoneSweepJob {
     /// Training epochs per run (the `fast` schedule with fewer epochs, to fit a night).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ZoneSweepJob::default().epochs))]
     pub epochs: usize,
-    /// SURF threshold of the maps; test frames are described at twice it and retried at it
-    /// (as the localize job does by default).
+    /// SURF threshold of the maps; test frames keep their strongest keypoints above 0.4 times
+    /// it (a budget per frame, as the localize job does by default).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ZoneSweepJob::default().threshold))]
     pub threshold: f32,
     /// Zones tried per frame (1 = the paper's rule).

@@ -35,7 +35,8 @@ pub struct MapJob {
     #[cfg_attr(feature = "cli", arg(long, default_value_t = MapJob::default().images_per_zone))]
     pub images_per_zone: usize,
     /// SURF threshold of the map (units of MATLAB's MetricThreshold; the paper's 200 suits
-    /// larger, richer images). Test frames are described at twice it and retried at it.
+    /// larger, richer images). Test frames keep their strongest keypoints above 0.4 times it
+    /// (a budget per frame, see `localize --keypoint-budget`).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = MapJob::default().threshold))]
     pub threshold: f32,
     /// How intensities enter SURF, for the map and for the frames localized against it:

@@ -227,7 +227,8 @@ pub struct DemoJob {
         arg(long, value_name = "WxH", default_value = "640x480", value_parser = parse_size)
     )]
     pub size: (u32, u32),
-    /// SURF threshold of the map; test frames are described at twice it and retried at it.
+    /// SURF threshold of the map; test frames keep their strongest keypoints above 0.4 times it
+    /// (a budget per frame, as `localize` does by default).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = DemoJob::default().threshold))]
     pub threshold: f32,
     /// Master seed of the simulation and the training.

@@ -26,7 +26,7 @@ use endoloc_jobs::{Progress, RunJob};
 ///   pairs = "zone"                     # zone (the paper's) | track
 ///   [map]
 ///   images_per_zone = 8
-///   threshold = 25.0                   # map; test frames at twice it, retried at it
+///   threshold = 25.0                   # map; test frames keep a budget above 0.4 × it
 ///   [localize]
 ///   live = false
 ///   candidate_zones = 3
