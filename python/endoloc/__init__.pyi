@@ -241,6 +241,7 @@ def map(
     intensity: Literal["linear", "log"] = ...,
     delta_r: float = ...,
     observation_radius: float = ...,
+    blur: float = ...,
     force: bool = ...,
     progress: ProgressArg = None,
 ) -> Report:
@@ -260,6 +261,8 @@ def map(
     - ``observation_radius``: Every other training frame of a zone adds its observations
       of the zone's points (matched by projection within this many pixels) before they are
       triangulated again; 0 = only the ``images_per_zone`` images.
+    - ``blur``: Smooth the training images by a Gaussian of this σ, pixels, before SURF:
+      a map of the coarser structure, for passes with another look; 0 = as they are.
     - ``force``: Replace an existing map.
     """
     ...

@@ -64,6 +64,15 @@ pub struct MapJob {
         arg(long = "observation-radius", default_value_t = MapJob::default().observation_radius_px)
     )]
     pub observation_radius_px: f64,
+    /// Smooth the training images by a Gaussian of this σ, pixels, before SURF (e.g. 0.7 at
+    /// 320×240): a map of the coarser structure, for passes with another look (fainter
+    /// texture, highlights, a blurred scope); frames are localized as they are. 0 (default)
+    /// = the images as they are.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long = "blur", value_name = "SIGMA_PX", default_value_t = MapJob::default().blur_px)
+    )]
+    pub blur_px: f64,
     /// Replace an existing map.
     #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
@@ -81,6 +90,7 @@ impl Default for MapJob {
             intensity: cfg.surf.intensity,
             delta_r_px: cfg.triangulation.delta_r_px,
             observation_radius_px: cfg.observation_radius_px,
+            blur_px: cfg.blur_px,
             force: false,
         }
     }
@@ -103,6 +113,7 @@ impl MapJob {
         let mut cfg = MapConfig {
             images_per_zone: self.images_per_zone,
             observation_radius_px: self.observation_radius_px,
+            blur_px: self.blur_px,
             ..MapConfig::default()
         };
         cfg.surf.threshold = self.threshold;

@@ -488,12 +488,14 @@ impl MapJob {
             .arg_if("seq", &self.seq, &d.seq)
             .arg_if("images-per-zone", &self.images_per_zone, &d.images_per_zone)
             .arg("threshold", self.threshold)
+            .arg_if("intensity", &self.intensity, &d.intensity)
             .arg_if("delta-r", &self.delta_r_px, &d.delta_r_px)
             .arg_if(
                 "observation-radius",
                 &self.observation_radius_px,
                 &d.observation_radius_px,
             )
+            .arg_if("blur", &self.blur_px, &d.blur_px)
             .flag("force", self.force)
             .finish()
     }

@@ -49,6 +49,12 @@ pub struct MapConfig {
     /// `images_per_zone` images only. At 3 px, median errors drop by 5–10 % across colons,
     /// but live localization's few wrong `refined` frames do not (docs/RESULTS.md).
     pub observation_radius_px: f64,
+    /// Beyond the paper (opt-in): the training images are smoothed by a Gaussian of this
+    /// standard deviation, pixels, before SURF detects and describes them; the frames
+    /// localized against the map are described as they are. A map of the coarser structure,
+    /// whose descriptors hold better when the pass being localized has another look (fainter
+    /// texture, highlights, a blurred scope). 0 (default) = the images as they are.
+    pub blur_px: f64,
 }
 
 impl Default for MapConfig {
@@ -60,6 +66,7 @@ impl Default for MapConfig {
             matcher: MatcherConfig::default(),
             triangulation: TriangulationConfig::default(),
             observation_radius_px: 0.0,
+            blur_px: 0.0,
         }
     }
 }
@@ -80,6 +87,12 @@ impl MapConfig {
             return Err(LocalizeError::Config(format!(
                 "map: observation_radius_px must be a finite value >= 0, got {}",
                 self.observation_radius_px
+            )));
+        }
+        if !(self.blur_px.is_finite() && self.blur_px >= 0.0) {
+            return Err(LocalizeError::Config(format!(
+                "map: blur_px must be a finite value >= 0, got {}",
+                self.blur_px
             )));
         }
         if self.min_views < 2 {
@@ -260,7 +273,7 @@ fn build_zone_map(
 ) -> Result<ZoneMap, LocalizeError> {
     let mut features: Vec<Vec<Feature>> = Vec::with_capacity(frames.len());
     for &f in frames {
-        let img = train.load_gray(f)?;
+        let img = map_image(train, f, cfg)?;
         features.push(surf.detect_and_describe(&img)?);
     }
     // Union-find over (image, keypoint) nodes.
@@ -363,6 +376,20 @@ fn build_zone_map(
     })
 }
 
+/// Training frame `f` as the map sees it: grey, smoothed by [`MapConfig::blur_px`].
+fn map_image(
+    train: &Sequence,
+    f: usize,
+    cfg: &MapConfig,
+) -> Result<image::GrayImage, LocalizeError> {
+    let img = train.load_gray(f)?;
+    Ok(if cfg.blur_px > 0.0 {
+        image::imageops::blur(&img, cfg.blur_px as f32)
+    } else {
+        img
+    })
+}
+
 /// [`MapConfig::observation_radius_px`]: the observations of `points` in the training frames
 /// `others` (found by projecting each point with the frame's known pose), and the points
 /// triangulated again from all their observations.
@@ -380,7 +407,7 @@ fn extend_observations(
     let mut found: Vec<Vec<(usize, Point2<f64>)>> = vec![Vec::new(); points.len()];
     let refs: Vec<&MapPoint> = points.iter().collect();
     for f in others {
-        let img = train.load_gray(f)?;
+        let img = map_image(train, f, cfg)?;
         let features = surf.detect_and_describe(&img)?;
         let matches = crate::guided::match_guided(
             &features,

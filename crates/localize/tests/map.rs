@@ -28,13 +28,23 @@ fn simulated_pass() -> (tempfile::TempDir, Dataset) {
 
 /// The map of 20 uniform zones, 8 images each, with `observation_radius_px`.
 fn map_with(ds: &Dataset, observation_radius_px: f64) -> endoloc_localize::Map {
+    map_of(
+        ds,
+        MapConfig {
+            observation_radius_px,
+            ..MapConfig::default()
+        },
+    )
+}
+
+/// The map of 20 uniform zones, 8 images each, SURF threshold 50, the rest from `cfg`.
+fn map_of(ds: &Dataset, cfg: MapConfig) -> endoloc_localize::Map {
     let train = ds.sequence("train").unwrap();
     let zones =
         ZoneTable::from_sequence(&train, &ZoneConfig::uniform(20, UniformBy::ArcLength)).unwrap();
     let mut map_cfg = MapConfig {
         images_per_zone: 8,
-        observation_radius_px,
-        ..MapConfig::default()
+        ..cfg
     };
     map_cfg.surf.threshold = 50.0;
     build_map(&train, &zones, &ds.meta.camera, &map_cfg, &|_| {}).unwrap()
@@ -102,6 +112,41 @@ fn observations_from_every_frame_of_a_zone_sharpen_the_points() {
     // itself only good to a few per cent, which bounds what this check can see.)
     assert!(q(&e1, 0.5) < 0.92 * q(&e0, 0.5), "median");
     assert!(q(&e1, 0.75) < 0.99 * q(&e0, 0.75), "p75");
+}
+
+/// A map of the smoothed training images (`blur_px`) holds the coarser structure: fewer
+/// points, and they still lie on the rendered surface as the sharp map's do.
+#[test]
+fn a_map_of_smoothed_images_has_coarser_points_on_the_surface() {
+    let (_tmp, ds) = simulated_pass();
+    let sharp = map_of(&ds, MapConfig::default());
+    let smoothed = map_of(
+        &ds,
+        MapConfig {
+            blur_px: 1.5,
+            ..MapConfig::default()
+        },
+    );
+    let (n0, n1) = (sharp.summary().points, smoothed.summary().points);
+    assert!(n1 < n0 && n1 >= 200, "points {n0} → {n1}");
+    let median = |e: Vec<f64>| e[e.len() / 2];
+    let (e0, e1) = (
+        median(first_view_depth_errors(&sharp, &ds)),
+        median(first_view_depth_errors(&smoothed, &ds)),
+    );
+    eprintln!("points {n0} → {n1}; relative depth error median {e0:.4} → {e1:.4}");
+    assert!(
+        e1 < 0.06 && e1 < 1.5 * e0,
+        "median relative depth error {e0:.4} → {e1:.4}"
+    );
+    for bad in [-1.0, f64::NAN] {
+        let cfg = MapConfig {
+            blur_px: bad,
+            ..MapConfig::default()
+        };
+        let err = cfg.validate().unwrap_err().to_string();
+        assert!(err.contains("blur_px"), "{err}");
+    }
 }
 
 #[test]
