@@ -241,7 +241,7 @@ def map(
     intensity: Literal["linear", "log"] = ...,
     delta_r: float = ...,
     observation_radius: float = ...,
-    blur: float = ...,
+    smoothed_level: float = ...,
     force: bool = ...,
     progress: ProgressArg = None,
 ) -> Report:
@@ -261,8 +261,9 @@ def map(
     - ``observation_radius``: Every other training frame of a zone adds its observations
       of the zone's points (matched by projection within this many pixels) before they are
       triangulated again; 0 = only the ``images_per_zone`` images.
-    - ``blur``: Smooth the training images by a Gaussian of this σ, pixels, before SURF:
-      a map of the coarser structure, for passes with another look; 0 = as they are.
+    - ``smoothed_level``: Also build the map's smoothed level (the map of the training
+      images smoothed by a Gaussian of this σ, pixels), where a frame that does not register
+      against the map is registered next; 0 = none.
     - ``force``: Replace an existing map.
     """
     ...

@@ -18,7 +18,7 @@ use endoloc_jobs::bail;
 use endoloc_jobs::error::{Context, Result};
 use endoloc_jobs::note;
 use endoloc_jobs::progress::{Progress, bar};
-use endoloc_localize::map_io::load_map;
+use endoloc_localize::map_io::{load_map, load_smoothed_level};
 use endoloc_localize::{
     ConfirmConfig, FrameResult, Localizer, LocalizerConfig, RetryFeatures, StageTimes,
 };
@@ -344,7 +344,8 @@ pub(super) fn run_endoloc(
         retry_threshold: Some(features.retry_surf.as_ref().map_or(0.0, |s| s.threshold)),
         ..LocalizerConfig::default()
     };
-    let localizer = Localizer::new(classifier, map, cfg)?;
+    let localizer =
+        Localizer::new(classifier, map, cfg)?.with_smoothed_level(load_smoothed_level(model)?)?;
     let localizer = match features.camera {
         Some(camera) => localizer.with_camera(camera)?,
         None => localizer,

@@ -8,7 +8,7 @@ use endoloc_data::write_atomic;
 use endoloc_data::{Dataset, Sequence};
 use endoloc_eval::refuse_existing;
 use endoloc_geometry::Status;
-use endoloc_localize::map_io::load_map;
+use endoloc_localize::map_io::{load_map, load_smoothed_level};
 use endoloc_localize::{FrameResult, Localizer, LocalizerConfig};
 use endoloc_net::track::{fixed_lag, smooth};
 use endoloc_net::{
@@ -312,7 +312,9 @@ impl ClassifyJob {
                 ..LocalizerConfig::default()
             };
             let mask = crate::localize::dataset_mask(&self.seq)?;
-            let mut localizer = Localizer::new(loaded, map, cfg)?.with_mask(mask);
+            let mut localizer = Localizer::new(loaded, map, cfg)?
+                .with_smoothed_level(load_smoothed_level(&self.model)?)?
+                .with_mask(mask);
             // A pass from another scope registers with its own camera.
             let ds = crate::localize::dataset_camera(&self.seq)?;
             if let Some(camera) = endoloc_data::sequence_camera(&self.seq, &ds)? {

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use endoloc_data::Dataset;
 use endoloc_localize::export::{write_colmap_text, write_zone_ply};
-use endoloc_localize::map_io::save_map;
+use endoloc_localize::map_io::{save_map, save_smoothed_level};
 use endoloc_localize::{MapConfig, MapSummary, build_map_masked};
 use endoloc_net::ZoneClassifier;
 use serde::{Deserialize, Serialize};
@@ -64,15 +64,20 @@ pub struct MapJob {
         arg(long = "observation-radius", default_value_t = MapJob::default().observation_radius_px)
     )]
     pub observation_radius_px: f64,
-    /// Smooth the training images by a Gaussian of this σ, pixels, before SURF (e.g. 0.7 at
-    /// 320×240): a map of the coarser structure, for passes with another look (fainter
-    /// texture, highlights, a blurred scope); frames are localized as they are. 0 (default)
-    /// = the images as they are.
+    /// Also build the map's smoothed level: the map of the training images smoothed by a
+    /// Gaussian of this σ, pixels (e.g. 1.5 at 320×240, 3 at 640×480), written to
+    /// `map_smoothed/`. A frame that does not register against the map is registered against
+    /// it (its coarser structure holds when the pass has another look: fainter texture,
+    /// highlights, a blurred scope). 0 (default) = no level (an earlier one is removed).
     #[cfg_attr(
         feature = "cli",
-        arg(long = "blur", value_name = "SIGMA_PX", default_value_t = MapJob::default().blur_px)
+        arg(
+            long = "smoothed-level",
+            value_name = "SIGMA_PX",
+            default_value_t = MapJob::default().smoothed_level_px
+        )
     )]
-    pub blur_px: f64,
+    pub smoothed_level_px: f64,
     /// Replace an existing map.
     #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
@@ -90,7 +95,7 @@ impl Default for MapJob {
             intensity: cfg.surf.intensity,
             delta_r_px: cfg.triangulation.delta_r_px,
             observation_radius_px: cfg.observation_radius_px,
-            blur_px: cfg.blur_px,
+            smoothed_level_px: 0.0,
             force: false,
         }
     }
@@ -101,6 +106,8 @@ impl Default for MapJob {
 pub struct MapReport {
     /// Counts and quality of the map.
     pub summary: MapSummary,
+    /// Counts and quality of its smoothed level, when built.
+    pub smoothed: Option<MapSummary>,
     /// The model folder the map was written to.
     pub model: PathBuf,
     /// Wall time, seconds.
@@ -113,7 +120,6 @@ impl MapJob {
         let mut cfg = MapConfig {
             images_per_zone: self.images_per_zone,
             observation_radius_px: self.observation_radius_px,
-            blur_px: self.blur_px,
             ..MapConfig::default()
         };
         cfg.surf.threshold = self.threshold;
@@ -141,28 +147,47 @@ impl MapJob {
         classifier.check_dataset(&dataset)?;
         let train = dataset.sequence(&self.seq)?;
         let cfg = self.map_config();
+        if !(self.smoothed_level_px.is_finite() && self.smoothed_level_px >= 0.0) {
+            return Err(JobError::Invalid(format!(
+                "smoothed_level_px = {}; expected a finite value >= 0 (0: no smoothed level)",
+                self.smoothed_level_px
+            )));
+        }
         let t = Instant::now();
-        let map = {
-            let bar = bar(progress, classifier.zone_count() as u64, "map");
-            build_map_masked(
+        let mask = crate::localize::mask_of(&dataset)?;
+        let model_zones = classifier
+            .config()
+            .provenance
+            .as_ref()
+            .map(|p| p.zones.clone());
+        let build = |cfg: &MapConfig, what: &str| -> Result<endoloc_localize::Map> {
+            let bar = bar(progress, classifier.zone_count() as u64, what);
+            let map = build_map_masked(
                 &train,
                 classifier.zones(),
                 &dataset.meta.camera,
-                crate::localize::mask_of(&dataset)?,
-                &cfg,
+                mask.clone(),
+                cfg,
                 &|_| bar.inc(1),
-            )?
+            )?;
+            Ok(endoloc_localize::Map {
+                model_zones: model_zones.clone(),
+                ..map
+            })
         };
-        let map = endoloc_localize::Map {
-            model_zones: classifier
-                .config()
-                .provenance
-                .as_ref()
-                .map(|p| p.zones.clone()),
-            ..map
+        let map = build(&cfg, "map")?;
+        let level = if self.smoothed_level_px > 0.0 {
+            let level_cfg = MapConfig {
+                blur_px: self.smoothed_level_px,
+                ..cfg.clone()
+            };
+            Some(build(&level_cfg, "smoothed level")?)
+        } else {
+            None
         };
         let summary = map.summary();
         save_map(&map, &self.model)?;
+        save_smoothed_level(level.as_ref(), &self.model)?;
         let ply_dir = self.model.join("map_ply");
         std::fs::create_dir_all(&ply_dir).map_err(|e| JobError::io(&ply_dir, e))?;
         for z in &map.zones {
@@ -184,6 +209,7 @@ impl MapJob {
         }
         Ok(MapReport {
             summary,
+            smoothed: level.as_ref().map(endoloc_localize::Map::summary),
             model: self.model.clone(),
             seconds: t.elapsed().as_secs_f64(),
         })
@@ -236,10 +262,22 @@ impl fmt::Display for MapReport {
             "map       {} zones, {} points (median {} per zone), mean reprojection RMS {:.2} px, {:.1} s",
             s.zones, s.points, s.median_points_per_zone, s.mean_reprojection_rms_px, self.seconds
         )?;
+        if let Some(l) = &self.smoothed {
+            writeln!(
+                f,
+                "smoothed  {} points (median {} per zone), mean reprojection RMS {:.2} px",
+                l.points, l.median_points_per_zone, l.mean_reprojection_rms_px
+            )?;
+        }
         write!(
             f,
-            "wrote     {}/map.bin, map_ply/, map_colmap/",
-            self.model.display()
+            "wrote     {}/map.bin{}, map_ply/, map_colmap/",
+            self.model.display(),
+            if self.smoothed.is_some() {
+                ", map_smoothed/"
+            } else {
+                ""
+            }
         )
     }
 }

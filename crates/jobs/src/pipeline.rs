@@ -495,7 +495,11 @@ impl MapJob {
                 &self.observation_radius_px,
                 &d.observation_radius_px,
             )
-            .arg_if("blur", &self.blur_px, &d.blur_px)
+            .arg_if(
+                "smoothed-level",
+                &self.smoothed_level_px,
+                &d.smoothed_level_px,
+            )
             .flag("force", self.force)
             .finish()
     }

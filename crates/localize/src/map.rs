@@ -53,7 +53,9 @@ pub struct MapConfig {
     /// standard deviation, pixels, before SURF detects and describes them; the frames
     /// localized against the map are described as they are. A map of the coarser structure,
     /// whose descriptors hold better when the pass being localized has another look (fainter
-    /// texture, highlights, a blurred scope). 0 (default) = the images as they are.
+    /// texture, highlights, a blurred scope). 0 (default) = the images as they are. The
+    /// map's smoothed level is a map built with it (`endoloc map --smoothed-level`), where a
+    /// frame that the map does not register goes next ([`crate::Localizer::with_smoothed_level`]).
     pub blur_px: f64,
 }
 

@@ -148,6 +148,44 @@ fn map_bytes(map: &Map) -> Vec<u8> {
     buf
 }
 
+/// Folder of the map's smoothed level inside a model folder (a `map.toml` and `map.bin` of
+/// its own, written by [`save_map`]): the map of the training images smoothed by a Gaussian
+/// ([`crate::MapConfig::blur_px`], [`crate::Localizer::with_smoothed_level`]).
+pub const SMOOTHED_LEVEL_DIR: &str = "map_smoothed";
+
+/// Writes the map's smoothed level into `dir/map_smoothed/` ([`save_map`]); with `None`,
+/// removes a level an earlier build left there, so that a map is never read with another
+/// build's level.
+///
+/// # Errors
+/// [`LocalizeError::File`] on I/O errors.
+pub fn save_smoothed_level(level: Option<&Map>, dir: &Path) -> Result<(), LocalizeError> {
+    let level_dir = dir.join(SMOOTHED_LEVEL_DIR);
+    match level {
+        Some(map) => {
+            std::fs::create_dir_all(&level_dir).map_err(|e| file_err(&level_dir, e))?;
+            save_map(map, &level_dir)
+        }
+        None => match std::fs::remove_dir_all(&level_dir) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(file_err(&level_dir, e)),
+            _ => Ok(()),
+        },
+    }
+}
+
+/// The smoothed level of the map in model folder `dir` ([`save_smoothed_level`]), or `None`
+/// when the map has none.
+///
+/// # Errors
+/// As [`load_map`], for a level that is there but cannot be read.
+pub fn load_smoothed_level(dir: &Path) -> Result<Option<Map>, LocalizeError> {
+    let level_dir = dir.join(SMOOTHED_LEVEL_DIR);
+    if !level_dir.join("map.toml").is_file() {
+        return Ok(None);
+    }
+    load_map(&level_dir).map(Some)
+}
+
 /// Reads a map written by [`save_map`]. When `map.bin` does not belong to `map.toml` (a
 /// `map` run killed between its two renames) but the earlier `map.bin` kept beside them does,
 /// that earlier map is read, with a warning.

@@ -3,7 +3,9 @@
 //! map file must give an error naming it.
 
 use endoloc_data::Dataset;
-use endoloc_localize::map_io::{load_map, save_map};
+use endoloc_localize::map_io::{
+    SMOOTHED_LEVEL_DIR, load_map, load_smoothed_level, save_map, save_smoothed_level,
+};
 use endoloc_localize::{MapConfig, build_map};
 use endoloc_net::{UniformBy, ZoneConfig, ZoneTable};
 use endoloc_sim::{Preset, SimConfig};
@@ -114,11 +116,13 @@ fn observations_from_every_frame_of_a_zone_sharpen_the_points() {
     assert!(q(&e1, 0.75) < 0.99 * q(&e0, 0.75), "p75");
 }
 
-/// A map of the smoothed training images (`blur_px`) holds the coarser structure: fewer
-/// points, and they still lie on the rendered surface as the sharp map's do.
+/// A map of the smoothed training images (`blur_px`, the map's smoothed level) holds the
+/// coarser structure: fewer points, and they still lie on the rendered surface as the sharp
+/// map's do. Saved as a model folder's level it reads back; a map saved without a level
+/// removes the earlier build's.
 #[test]
-fn a_map_of_smoothed_images_has_coarser_points_on_the_surface() {
-    let (_tmp, ds) = simulated_pass();
+fn a_smoothed_level_has_coarser_points_on_the_surface_and_round_trips() {
+    let (tmp, ds) = simulated_pass();
     let sharp = map_of(&ds, MapConfig::default());
     let smoothed = map_of(
         &ds,
@@ -147,6 +151,16 @@ fn a_map_of_smoothed_images_has_coarser_points_on_the_surface() {
         let err = cfg.validate().unwrap_err().to_string();
         assert!(err.contains("blur_px"), "{err}");
     }
+    let model = tmp.path().join("model");
+    std::fs::create_dir_all(&model).unwrap();
+    assert!(load_smoothed_level(&model).unwrap().is_none());
+    save_smoothed_level(Some(&smoothed), &model).unwrap();
+    let back = load_smoothed_level(&model).unwrap().expect("the level");
+    assert_eq!(back.config.blur_px, 1.5);
+    assert_eq!(back.summary().points, n1);
+    save_smoothed_level(None, &model).unwrap();
+    assert!(load_smoothed_level(&model).unwrap().is_none());
+    assert!(!model.join(SMOOTHED_LEVEL_DIR).exists());
 }
 
 #[test]

@@ -11,6 +11,8 @@
 //!   zone) is not `refined`;
 //! - live, frames tracked from the prediction skip the classifier without changing a pose;
 //! - a frame with too few features at the test threshold registers with the retry features;
+//! - a frame the map does not recognise registers against the map's smoothed level, per
+//!   frame and live, as the level alone would register it;
 //! - confirmation against the map points near the registered pose sharpens right poses,
 //!   pulls a pose 3 mm off back to the truth and refuses a pose that another stretch's
 //!   features do not support;
@@ -78,6 +80,11 @@ fn make_fixture() -> Fixture {
 /// A localizer whose network is untrained: only its zone table and training poses matter
 /// here, the predictions are supplied by the test.
 fn localizer(f: &Fixture, cfg: LocalizerConfig) -> Localizer {
+    localizer_of(f, cfg, f.map.clone())
+}
+
+/// [`localizer`] with another `map`.
+fn localizer_of(f: &Fixture, cfg: LocalizerConfig, map: endoloc_localize::Map) -> Localizer {
     let device = endoloc_net::device::cpu();
     let backbone = BackboneConfig::compact();
     let net = backbone.init(&device).valid();
@@ -118,7 +125,7 @@ fn localizer(f: &Fixture, cfg: LocalizerConfig) -> Localizer {
     if cfg.surf.is_none() {
         cfg.surf = Some(f.map.config.surf.clone().with_threshold(50.0));
     }
-    Localizer::new(clf, f.map.clone(), cfg).unwrap()
+    Localizer::new(clf, map, cfg).unwrap()
 }
 
 /// A prediction that strongly favours `zone`.
@@ -462,6 +469,83 @@ fn a_frame_without_enough_features_registers_with_the_retry_features() {
         checked >= 5,
         "only {checked} frames registered at threshold 25"
     );
+}
+
+/// A frame that does not register against the map registers against its smoothed level,
+/// per frame and live (tracked from the prediction): here a map whose descriptors recognise
+/// nothing (each reversed), with the true map as its level.
+#[test]
+fn a_frame_the_map_does_not_recognise_registers_against_its_smoothed_level() {
+    let f = fixture();
+    let test = f.ds.sequence("test").unwrap();
+    let mut blind = f.map.clone();
+    for p in blind.zones.iter_mut().flat_map(|z| z.points.iter_mut()) {
+        p.descriptor.reverse();
+    }
+    let plain = localizer_of(f, LocalizerConfig::default(), blind.clone());
+    let leveled = localizer_of(f, LocalizerConfig::default(), blind)
+        .with_smoothed_level(Some(f.map.clone()))
+        .unwrap();
+    let sharp = localizer(f, LocalizerConfig::default());
+    let frames: Vec<usize> = (100..130).collect();
+    let (mut state, mut sharp_state, mut refined) = (leveled.live_state(), sharp.live_state(), 0);
+    for &i in &frames {
+        let img = test.load_gray(i).unwrap();
+        let features = leveled.surf().detect_and_describe(&img).unwrap();
+        let zone = leveled
+            .classifier()
+            .truth_zone(&test.poses[i].pose)
+            .unwrap();
+        let pred = predict(zone);
+        let times = StageTimes::default();
+        let without = plain
+            .localize_features(&features, None, &pred, zone, times)
+            .unwrap();
+        assert_ne!(
+            without.status,
+            Status::Refined,
+            "frame {i} without the level"
+        );
+        // Through the level, each frame gets what the true map alone gives it.
+        let per_frame = leveled
+            .localize_features(&features, None, &pred, zone, times)
+            .unwrap();
+        let expected = sharp
+            .localize_features(&features, None, &pred, zone, times)
+            .unwrap();
+        assert_eq!(
+            (per_frame.status, per_frame.t_wc),
+            (expected.status, expected.t_wc),
+            "frame {i} per frame"
+        );
+        let live = leveled
+            .localize_live_features(&mut state, &features, None, &pred, times)
+            .unwrap();
+        let expected = sharp
+            .localize_live_features(&mut sharp_state, &features, None, &pred, times)
+            .unwrap();
+        assert_eq!(
+            (live.status, live.t_wc),
+            (expected.status, expected.t_wc),
+            "frame {i} live"
+        );
+        refined += usize::from(live.status == Status::Refined);
+    }
+    // (22 of the 30 at this seed: what the true map gives them.)
+    assert!(
+        refined * 2 >= frames.len(),
+        "live: {refined} of {} frames refined through the level",
+        frames.len()
+    );
+    // A level built for another zone table is refused.
+    let mut other = f.map.clone();
+    other.zones.pop();
+    let err = localizer(f, LocalizerConfig::default())
+        .with_smoothed_level(Some(other))
+        .err()
+        .expect("a level with another zone count")
+        .to_string();
+    assert!(err.contains("smoothed level"), "{err}");
 }
 
 /// Live over every `step`-th test frame (a fast pass), with the frames in `blind` stripped of

@@ -10,7 +10,7 @@ use endoloc_data::{Dataset, Sequence, StampedPose};
 use endoloc_features::Mask;
 use endoloc_geometry::RobustKernel;
 use endoloc_localize::colon_scale::ColonScaleConfig;
-use endoloc_localize::map_io::load_map;
+use endoloc_localize::map_io::{load_map, load_smoothed_level};
 use endoloc_localize::{ConfirmConfig, FrameResult, Localizer, LocalizerConfig, MotionConfig};
 use endoloc_net::ZoneClassifier;
 use rayon::prelude::*;
@@ -429,7 +429,8 @@ impl LocalizeJob {
         let map = load_map(model)?;
         let mut cfg = self.localizer_config(&map.config.surf);
         adjust(&mut cfg, &map.config.surf);
-        let localizer = Localizer::new(classifier, map, cfg)?;
+        let localizer = Localizer::new(classifier, map, cfg)?
+            .with_smoothed_level(load_smoothed_level(model)?)?;
         match self.frames_camera(localizer.camera())? {
             Some(camera) => Ok(localizer.with_camera(camera)?),
             None => Ok(localizer),

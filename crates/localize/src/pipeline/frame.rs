@@ -38,6 +38,9 @@ pub struct Localizer {
     pub(super) mask: Option<std::sync::Arc<image::GrayImage>>,
     /// The colon-scale refinement, when [`LocalizerConfig::colon_scale`] is on.
     pub(super) colon_scale: Option<ColonScale>,
+    /// The map's smoothed level ([`Localizer::with_smoothed_level`]): the map of the training
+    /// images smoothed by a Gaussian, where a frame that registers against the map goes next.
+    pub(super) smoothed: Option<Map>,
 }
 
 /// A frame's SURF features at [`LocalizerConfig::retry_threshold`](crate::LocalizerConfig::retry_threshold), extracted beforehand.
@@ -153,6 +156,7 @@ impl Localizer {
             None => None,
         };
         Ok(Localizer {
+            smoothed: None,
             colon_scale,
             gate,
             mask: None,
@@ -197,6 +201,53 @@ impl Localizer {
         }
         self.camera = camera;
         Ok(self)
+    }
+
+    /// This localizer with the map's smoothed level (`None`: without): a frame that does not
+    /// register against the map — tracked from the prediction, or searched for in the
+    /// candidate zones — is registered the same way against `level`, the map of the training
+    /// images smoothed by a Gaussian ([`crate::MapConfig::blur_px`]), whose coarser
+    /// structure holds when the pass has another look than the mapping pass. The frame's
+    /// features are the same; the level's registration counts only when it is `refined`.
+    /// [`Localizer::register_in_zone`] and [`Localizer::localize_in_zone`] use the map alone.
+    ///
+    /// # Errors
+    /// [`LocalizeError::Mismatch`] when the level was built for other zones or another camera
+    /// than the map.
+    pub fn with_smoothed_level(mut self, level: Option<Map>) -> Result<Self, LocalizeError> {
+        if let Some(level) = &level {
+            let m = &self.map;
+            if level.zones.len() != m.zones.len()
+                || level.camera != m.camera
+                || (level.model_zones.is_some()
+                    && m.model_zones.is_some()
+                    && level.model_zones != m.model_zones)
+            {
+                return Err(LocalizeError::Mismatch(format!(
+                    "the map's smoothed level has {} zones for a {}x{} camera (zones {}), the map \
+                     {} zones for a {}x{} camera (zones {}): they come from different builds; \
+                     rebuild the map with the map job (`force`)",
+                    level.zones.len(),
+                    level.camera.width,
+                    level.camera.height,
+                    level
+                        .model_zones
+                        .as_ref()
+                        .map_or("?".into(), |f| f.to_string()),
+                    m.zones.len(),
+                    m.camera.width,
+                    m.camera.height,
+                    m.model_zones.as_ref().map_or("?".into(), |f| f.to_string()),
+                )));
+            }
+        }
+        self.smoothed = level;
+        Ok(self)
+    }
+
+    /// The map's smoothed level, when it has one ([`Localizer::with_smoothed_level`]).
+    pub fn smoothed_level(&self) -> Option<&Map> {
+        self.smoothed.as_ref()
     }
 
     /// The camera of the frames localized (the model's unless [`Localizer::with_camera`] set
@@ -271,29 +322,42 @@ impl Localizer {
         let t = Instant::now();
         let features = self.surf.detect_and_describe(img)?;
         times.surf_ms = ms(t);
-        Ok(self.scaled_alone(self.register(&features, zone, zone_score, times)?))
+        Ok(self.scaled_alone(self.register(&self.map, &features, zone, zone_score, times)?))
     }
 
-    /// Steps 3–4 for precomputed SURF features of the frame, in one zone.
+    /// Steps 3–4 for precomputed SURF features of the frame, in one zone of `map` (the map or
+    /// its smoothed level).
     pub(super) fn register(
         &self,
+        map: &Map,
         features: &[endoloc_features::Feature],
         zone: usize,
         zone_score: f32,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
         let prior = self.classifier.zones().zones[zone].median_pose;
-        self.register_from(features, zone, &prior, Prior::ZoneMedian, zone_score, times)
+        self.register_from(
+            map,
+            features,
+            zone,
+            &prior,
+            Prior::ZoneMedian,
+            zone_score,
+            times,
+        )
     }
 
-    /// Matches `features` to the map points of `zone` (and its neighbours) and refines from
+    /// Matches `features` to the points of `map` (the map or its smoothed level) in `zone`
+    /// (and its neighbours) and refines from
     /// `prior` (`T_wc`, mm); the validity check measures the jump from `prior`. A predicted
     /// prior with a guide radius guides the matching ([`crate::guided`]: only map points
     /// projected within that many pixels of a feature compete for it); brute force otherwise.
     /// With confirmation on, the registration is confirmed unless it is tracked from a
     /// prediction with [`ConfirmConfig::trust_tracked_inliers`].
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn register_from(
         &self,
+        map: &Map,
         features: &[endoloc_features::Feature],
         zone: usize,
         prior: &Pose,
@@ -304,8 +368,8 @@ impl Localizer {
         let prior = *prior;
         let t = Instant::now();
         let lo = zone.saturating_sub(self.cfg.neighbour_zones);
-        let hi = (zone + self.cfg.neighbour_zones + 1).min(self.map.zones.len());
-        let candidates: Vec<&MapPoint> = self.map.zones[lo..hi]
+        let hi = (zone + self.cfg.neighbour_zones + 1).min(map.zones.len());
+        let candidates: Vec<&MapPoint> = map.zones[lo..hi]
             .iter()
             .flat_map(|zm| zm.points.iter())
             .collect();
@@ -363,7 +427,7 @@ impl Localizer {
             let near = self.classifier.truth_zone(&t_wc).unwrap_or(zone);
             let c = confirm(
                 features,
-                &self.map,
+                map,
                 &self.camera,
                 near,
                 &t_wc,
@@ -556,10 +620,47 @@ impl Localizer {
         Ok(second)
     }
 
-    /// [`Localizer::localize_features`], then `extra` zones (not already tried) if none of the
-    /// candidate zones registered.
+    /// [`Localizer::localize_candidates_in`] the map, then, when no zone registered there and
+    /// the map has a smoothed level, in that level; the level's result counts only when
+    /// `refined` (with the time of both searches), else the map's verdict stands.
     pub(super) fn localize_candidates(
         &self,
+        features: &[Feature],
+        pred: &ZonePrediction,
+        chosen: usize,
+        extra: &[usize],
+        times: StageTimes,
+    ) -> Result<FrameResult, LocalizeError> {
+        let first = self.localize_candidates_in(&self.map, features, pred, chosen, extra, times)?;
+        let Some(level) = self
+            .smoothed
+            .as_ref()
+            .filter(|_| first.status != Status::Refined)
+        else {
+            return Ok(first);
+        };
+        let second = self.localize_candidates_in(level, features, pred, chosen, extra, times)?;
+        Ok(Self::level_fallback(first, second))
+    }
+
+    /// `second` (a registration against the smoothed level after `first`, against the map,
+    /// failed) when it is `refined`, with the time of both; else `first` with the time of both.
+    pub(super) fn level_fallback(first: FrameResult, second: FrameResult) -> FrameResult {
+        let (mut kept, other) = if second.status == Status::Refined {
+            (second, &first)
+        } else {
+            (first.clone(), &second)
+        };
+        kept.times.matching_ms += other.times.matching_ms;
+        kept.times.refine_ms += other.times.refine_ms;
+        kept
+    }
+
+    /// The candidate zones of `map` (the map or its smoothed level) in turn, then `extra`
+    /// zones (not already tried) if none of them registered.
+    fn localize_candidates_in(
+        &self,
+        map: &Map,
         features: &[Feature],
         pred: &ZonePrediction,
         chosen: usize,
@@ -607,7 +708,7 @@ impl Localizer {
         while let Some(&zone) = queue.get(next) {
             next += 1;
             let score = pred.zone_scores.get(zone).copied().unwrap_or(f32::NAN);
-            let r = self.register(features, zone, score, times)?;
+            let r = self.register(map, features, zone, score, times)?;
             spent.matching_ms += r.times.matching_ms;
             spent.refine_ms += r.times.refine_ms;
             if r.status == Status::Refined {
@@ -676,7 +777,7 @@ impl Localizer {
                 "zone {zone} out of range (the model has {n_zones})"
             )));
         }
-        Ok(self.scaled_alone(self.register(features, zone, f32::NAN, times)?))
+        Ok(self.scaled_alone(self.register(&self.map, features, zone, f32::NAN, times)?))
     }
 
     /// The settings.

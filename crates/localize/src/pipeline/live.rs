@@ -346,9 +346,24 @@ impl Localizer {
         let radius =
             (m.search_px > 0.0).then_some(m.search_px + m.search_px_per_frame * p.age as f64);
         let origin = Prior::Predicted { guide_px: radius };
-        let r = self.register_from(features, z, &p.t_wc, origin, score, times)?;
-        let r = self.disambiguate(r, Some(p));
-        if r.status == Status::Refined && r.t_wc.is_some_and(|t| p.compare(&t, &self.gate).agrees) {
+        // A registration against `map` (the map or its smoothed level), and whether it counts:
+        // refined, and where the scope can be.
+        let tracked = |map| -> Result<(FrameResult, bool), LocalizeError> {
+            let r = self.register_from(map, features, z, &p.t_wc, origin, score, times)?;
+            let r = self.disambiguate(r, Some(p));
+            let agrees = r.status == Status::Refined
+                && r.t_wc.is_some_and(|t| p.compare(&t, &self.gate).agrees);
+            Ok((r, agrees))
+        };
+        let (mut r, mut agrees) = tracked(&self.map)?;
+        if !agrees && let Some(level) = &self.smoothed {
+            let (second, second_agrees) = tracked(level)?;
+            let spent = r.times;
+            (r, agrees) = (second, second_agrees);
+            r.times.matching_ms += spent.matching_ms;
+            r.times.refine_ms += spent.refine_ms;
+        }
+        if agrees {
             return Ok(Tracked::Registered(Box::new(r)));
         }
         Ok(Tracked::Failed(StageTimes {
