@@ -39,7 +39,7 @@ pub struct Localizer {
     /// The colon-scale refinement, when [`LocalizerConfig::colon_scale`] is on.
     pub(super) colon_scale: Option<ColonScale>,
     /// The map's smoothed level ([`Localizer::with_smoothed_level`]): the map of the training
-    /// images smoothed by a Gaussian, where a frame that registers against the map goes next.
+    /// images smoothed by a Gaussian, where a frame that the map does not register goes next.
     pub(super) smoothed: Option<Map>,
 }
 
@@ -348,8 +348,8 @@ impl Localizer {
     }
 
     /// Matches `features` to the points of `map` (the map or its smoothed level) in `zone`
-    /// (and its neighbours) and refines from
-    /// `prior` (`T_wc`, mm); the validity check measures the jump from `prior`. A predicted
+    /// (and its neighbours) and refines from `prior` (`T_wc`, mm); the validity check
+    /// measures the jump from `prior`. A predicted
     /// prior with a guide radius guides the matching ([`crate::guided`]: only map points
     /// projected within that many pixels of a feature compete for it); brute force otherwise.
     /// With confirmation on, the registration is confirmed unless it is tracked from a
