@@ -625,6 +625,32 @@ fn every_method_and_experiment_writes_its_outputs() {
         &r("model_nope"),
     ]);
     assert!(err.contains("nope") && err.contains("test"), "{err}");
+
+    // The map's smoothed level: written beside the map, used by localize, removed by a map
+    // built without it.
+    let (model, data) = (r("model"), r("data"));
+    let map_with_level = |extra: &[&str]| {
+        let mut args = vec!["map", "--model", &model, "--data", &data];
+        args.extend_from_slice(&["--threshold", "20", "--force"]);
+        args.extend_from_slice(extra);
+        ok(&args)
+    };
+    let report = map_with_level(&["--smoothed-level", "1.0"]);
+    assert!(report.contains("map_smoothed/"), "{report}");
+    assert!(st.root.join("model/map_smoothed/map.toml").is_file());
+    ok(&[
+        "localize",
+        "--model",
+        &r("model"),
+        "--seq",
+        &r("data/test"),
+        "--out",
+        &r("run-level"),
+        "--live",
+    ]);
+    check_run_files(&st.root.join("run-level"), 40);
+    map_with_level(&[]);
+    assert!(!st.root.join("model/map_smoothed").exists());
 }
 
 #[test]
