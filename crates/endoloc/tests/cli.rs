@@ -651,6 +651,22 @@ fn every_method_and_experiment_writes_its_outputs() {
     check_run_files(&st.root.join("run-level"), 40);
     map_with_level(&[]);
     assert!(!st.root.join("model/map_smoothed").exists());
+    let err = fails(&[
+        "map",
+        "--model",
+        &model,
+        "--data",
+        &data,
+        "--smoothed-level=-1",
+    ]);
+    assert!(
+        err.contains("--smoothed-level") && err.contains("-1 px"),
+        "{err}"
+    );
+    assert!(
+        st.root.join("model/map.bin").is_file(),
+        "a refused map job keeps the map"
+    );
 }
 
 #[test]

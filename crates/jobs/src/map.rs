@@ -134,6 +134,13 @@ impl MapJob {
     /// An existing map without `force`, an unreadable model or dataset, a model trained for
     /// another camera, or a failed write.
     pub fn run(&self, progress: &dyn Progress) -> Result<MapReport> {
+        if !(self.smoothed_level_px.is_finite() && self.smoothed_level_px >= 0.0) {
+            return Err(JobError::Invalid(format!(
+                "the smoothed level's σ (`smoothed_level_px`, `--smoothed-level`) is {} px; \
+                 expected a finite value >= 0 (0: no smoothed level)",
+                self.smoothed_level_px
+            )));
+        }
         if self.model.join("map.bin").exists() && !self.force {
             return Err(JobError::Exists {
                 path: self.model.join("map.bin"),
@@ -147,12 +154,6 @@ impl MapJob {
         classifier.check_dataset(&dataset)?;
         let train = dataset.sequence(&self.seq)?;
         let cfg = self.map_config();
-        if !(self.smoothed_level_px.is_finite() && self.smoothed_level_px >= 0.0) {
-            return Err(JobError::Invalid(format!(
-                "smoothed_level_px = {}; expected a finite value >= 0 (0: no smoothed level)",
-                self.smoothed_level_px
-            )));
-        }
         let t = Instant::now();
         let mask = crate::localize::mask_of(&dataset)?;
         let model_zones = classifier

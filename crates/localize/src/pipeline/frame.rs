@@ -646,13 +646,15 @@ impl Localizer {
     /// `second` (a registration against the smoothed level after `first`, against the map,
     /// failed) when it is `refined`, with the time of both; else `first` with the time of both.
     pub(super) fn level_fallback(first: FrameResult, second: FrameResult) -> FrameResult {
-        let (mut kept, other) = if second.status == Status::Refined {
-            (second, &first)
+        let (mut kept, spent) = if second.status == Status::Refined {
+            let spent = first.times;
+            (second, spent)
         } else {
-            (first.clone(), &second)
+            let spent = second.times;
+            (first, spent)
         };
-        kept.times.matching_ms += other.times.matching_ms;
-        kept.times.refine_ms += other.times.refine_ms;
+        kept.times.matching_ms += spent.matching_ms;
+        kept.times.refine_ms += spent.refine_ms;
         kept
     }
 
