@@ -148,17 +148,21 @@ fn every_method_and_experiment_writes_its_outputs() {
     let st = setup();
     let r = |p: &str| s(&st.root.join(p));
 
+    // `endoloc localize --live` of the test pass into `out`.
+    let localize_live = |out: &str| {
+        ok(&[
+            "localize",
+            "--model",
+            &r("model"),
+            "--seq",
+            &r("data/test"),
+            "--out",
+            &r(out),
+            "--live",
+        ])
+    };
     // Our method, live, then evaluated.
-    ok(&[
-        "localize",
-        "--model",
-        &r("model"),
-        "--seq",
-        &r("data/test"),
-        "--out",
-        &r("run"),
-        "--live",
-    ]);
+    localize_live("run");
     let frames = std::fs::read_to_string(st.root.join("run/frames.csv")).unwrap();
     assert_eq!(
         frames.lines().count(),
@@ -638,19 +642,15 @@ fn every_method_and_experiment_writes_its_outputs() {
     let report = map_with_level(&["--smoothed-level", "1.0"]);
     assert!(report.contains("map_smoothed/"), "{report}");
     assert!(st.root.join("model/map_smoothed/map.toml").is_file());
-    ok(&[
-        "localize",
-        "--model",
-        &r("model"),
-        "--seq",
-        &r("data/test"),
-        "--out",
-        &r("run-level"),
-        "--live",
-    ]);
+    localize_live("run-level");
     check_run_files(&st.root.join("run-level"), 40);
     map_with_level(&[]);
     assert!(!st.root.join("model/map_smoothed").exists());
+    let map_toml = std::fs::read_to_string(st.root.join("model/map.toml")).unwrap();
+    assert!(
+        !map_toml.contains("blur_px"),
+        "a sharp map's map.toml as before:\n{map_toml}"
+    );
     let err = fails(&[
         "map",
         "--model",

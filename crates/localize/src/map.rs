@@ -56,6 +56,8 @@ pub struct MapConfig {
     /// texture, highlights, a blurred scope). 0 (default) = the images as they are. The
     /// map's smoothed level is a map built with it (`endoloc map --smoothed-level`), where a
     /// frame that the map does not register goes next ([`crate::Localizer::with_smoothed_level`]).
+    /// Not written to `map.toml` when 0, so a map built without it reads as before.
+    #[serde(skip_serializing_if = "is_zero")]
     pub blur_px: f64,
 }
 
@@ -105,6 +107,10 @@ impl MapConfig {
         }
         Ok(())
     }
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// The map of one zone.
