@@ -644,6 +644,33 @@ fn every_method_and_experiment_writes_its_outputs() {
     assert!(st.root.join("model/map_smoothed/map.toml").is_file());
     localize_live("run-level");
     check_run_files(&st.root.join("run-level"), 40);
+    // An experiment asked for that level uses the map as it is; asked for another, it refuses
+    // the model and says how to build it.
+    let compare_level = |sigma: &str, out: &str, succeeds: bool| {
+        let args = [
+            "experiment",
+            "compare",
+            "--data",
+            &data,
+            "--model",
+            &model,
+            "--threshold",
+            "20",
+            "--methods",
+            "classify",
+            "--smoothed-level",
+            sigma,
+            "--out",
+            out,
+        ];
+        if succeeds { ok(&args) } else { fails(&args) }
+    };
+    compare_level("1.0", &r("compare-level"), true);
+    let err = compare_level("2.0", &r("compare-level-2"), false);
+    assert!(
+        err.contains("σ 1 px") && err.contains("--smoothed-level 2 --force"),
+        "{err}"
+    );
     map_with_level(&[]);
     assert!(!st.root.join("model/map_smoothed").exists());
     let map_toml = std::fs::read_to_string(st.root.join("model/map.toml")).unwrap();

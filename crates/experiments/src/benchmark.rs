@@ -74,6 +74,13 @@ pub struct BenchmarkJob {
     /// Seed of every training.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = BenchmarkJob::default().seed))]
     pub seed: u64,
+    /// Also build each map's smoothed level, of this σ in pixels (see the map job's
+    /// `smoothed_level_px`; 0: none).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long = "smoothed-level", value_name = "SIGMA_PX", default_value_t = BenchmarkJob::default().smoothed_level_px)
+    )]
+    pub smoothed_level_px: f64,
     /// Methods (default: endoloc-paper, endoloc, endoloc-confirm, endoloc-live,
     /// endoloc-live-confirm, classify; see the compare experiment).
     #[cfg_attr(feature = "cli", arg(long, value_delimiter = ','))]
@@ -114,6 +121,7 @@ impl Default for BenchmarkJob {
             pretrained: "builtin-joint".into(),
             epochs: None,
             seed: 0,
+            smoothed_level_px: 0.0,
             methods: Vec::new(),
             colon: None,
             print_jobs: false,
@@ -364,6 +372,9 @@ impl BenchmarkJob {
             c.push_str(&format!(" --changes {}", s.name()));
         }
         c.push_str(&format!(" --pretrained {}", shell_quote(&self.pretrained)));
+        if self.smoothed_level_px != 0.0 {
+            c.push_str(&format!(" --smoothed-level {}", self.smoothed_level_px));
+        }
         if let Some(e) = self.epochs {
             c.push_str(&format!(" --epochs {e}"));
         }
@@ -394,6 +405,7 @@ impl BenchmarkJob {
                  speak for unseen ones"
             );
         }
+        endoloc_jobs::map::check_smoothed_level(self.smoothed_level_px)?;
         if self.print_jobs {
             return Ok(BenchmarkReport {
                 colons: Vec::new(),
@@ -513,6 +525,7 @@ impl BenchmarkJob {
             seed: self.seed,
             model: Some(model),
             methods: self.methods(),
+            smoothed_level_px: self.smoothed_level_px,
             ..Default::default()
         };
         let report = compare.run(progress)?;

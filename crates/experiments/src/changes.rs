@@ -244,6 +244,13 @@ pub struct ChangesJob {
     /// Seed of every training.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ChangesJob::default().seed))]
     pub seed: u64,
+    /// Also build each map's smoothed level, of this σ in pixels (see the map job's
+    /// `smoothed_level_px`; 0: none).
+    #[cfg_attr(
+        feature = "cli",
+        arg(long = "smoothed-level", value_name = "SIGMA_PX", default_value_t = ChangesJob::default().smoothed_level_px)
+    )]
+    pub smoothed_level_px: f64,
     /// Keep each condition's dataset (by default it is deleted once its figures are written:
     /// a condition of the `small` preset takes about 50 MB).
     #[cfg_attr(feature = "cli", arg(long))]
@@ -278,6 +285,7 @@ impl Default for ChangesJob {
             zones: ZoneSpec::default(),
             pretrained: "builtin-joint".into(),
             seed: 0,
+            smoothed_level_px: 0.0,
             keep_data: false,
             colon: None,
             print_jobs: false,
@@ -479,6 +487,9 @@ impl ChangesJob {
             c.push_str(&format!(" --severities {}", s.join(",")));
         }
         c.push_str(&format!(" --pretrained {}", shell_quote(&self.pretrained)));
+        if self.smoothed_level_px != 0.0 {
+            c.push_str(&format!(" --smoothed-level {}", self.smoothed_level_px));
+        }
         if self.keep_data {
             c.push_str(" --keep-data");
         }
@@ -498,6 +509,7 @@ impl ChangesJob {
         if colons.is_empty() {
             bail!("no colons: give `seeds` and/or `gca`");
         }
+        endoloc_jobs::map::check_smoothed_level(self.smoothed_level_px)?;
         if self.print_jobs {
             return Ok(ChangesReport {
                 summary: Vec::new(),
@@ -641,6 +653,7 @@ impl ChangesJob {
                 seed: self.seed,
                 model: Some(model.clone()),
                 methods: vec![LIVE, PER_FRAME],
+                smoothed_level_px: self.smoothed_level_px,
                 force: true,
                 ..Default::default()
             }

@@ -18,7 +18,9 @@ use endoloc_jobs::bail;
 use endoloc_jobs::error::{Context, Result};
 use endoloc_jobs::note;
 use endoloc_jobs::progress::{Progress, bar};
-use endoloc_localize::map_io::{load_map, load_smoothed_level};
+use endoloc_localize::map_io::{
+    SMOOTHED_LEVEL_DIR, load_map, load_smoothed_level, smoothed_level_px,
+};
 use endoloc_localize::{
     ConfirmConfig, FrameResult, Localizer, LocalizerConfig, RetryFeatures, StageTimes,
 };
@@ -132,30 +134,62 @@ pub(super) fn ensure_model(
     Ok(true)
 }
 
-/// Builds the per-zone maps of `model` unless it has one. Maps depend on the zone table and
-/// the training data, not on the training seed: when `share_from` holds a map built for an
-/// identical zone table (same `zones.csv`), it is copied instead of rebuilt.
+/// Builds the per-zone maps of `model`, with a smoothed level of σ `smoothed_level_px` pixels
+/// (0: none; the map job's `smoothed_level_px`), unless it has them; a map already there with
+/// another level is refused, not rebuilt. Maps depend on the zone table and the training
+/// data, not on the training seed: when `share_from` holds a map with the same level built
+/// for an identical zone table (same `zones.csv`), it is copied instead of rebuilt.
 pub(super) fn ensure_map(
     model: &Path,
     data: &Data,
     threshold: f32,
+    smoothed_level_px: f64,
     share_from: &[PathBuf],
     progress: &dyn Progress,
 ) -> Result<()> {
     if model.join("map.bin").is_file() {
+        let found = smoothed_level_px_of(model)?;
+        if found != smoothed_level_px {
+            let has = |s: f64| {
+                if s > 0.0 {
+                    format!("a smoothed level of σ {s} px")
+                } else {
+                    "no smoothed level".to_string()
+                }
+            };
+            bail!(
+                "the map of {} has {}, but {} was asked for: build it again with `endoloc map \
+                 --model {} --smoothed-level {} --force`, or use another model",
+                model.display(),
+                has(found),
+                has(smoothed_level_px),
+                shell_quote(&model.display().to_string()),
+                smoothed_level_px
+            );
+        }
         return Ok(());
     }
     let zones = std::fs::read(model.join("zones.csv"))
         .with_context(|| format!("reading {}/zones.csv", model.display()))?;
     for other in share_from {
-        if other == model || !other.join("map.bin").is_file() {
+        if other == model
+            || !other.join("map.bin").is_file()
+            || smoothed_level_px_of(other)? != smoothed_level_px
+        {
             continue;
         }
         if std::fs::read(other.join("zones.csv")).ok().as_deref() == Some(&zones[..]) {
-            for f in ["map.toml", "map.bin"] {
-                let bytes = std::fs::read(other.join(f))
-                    .with_context(|| format!("reading {}/{f}", other.display()))?;
-                write_atomic(&model.join(f), &bytes)?;
+            let level = Path::new(SMOOTHED_LEVEL_DIR);
+            let mut files = vec![PathBuf::from("map.toml"), PathBuf::from("map.bin")];
+            if smoothed_level_px > 0.0 {
+                std::fs::create_dir_all(model.join(level))
+                    .with_context(|| format!("creating {}", model.join(level).display()))?;
+                files.extend([level.join("map.toml"), level.join("map.bin")]);
+            }
+            for f in files {
+                let bytes = std::fs::read(other.join(&f))
+                    .with_context(|| format!("reading {}", other.join(&f).display()))?;
+                write_atomic(&model.join(&f), &bytes)?;
             }
             note!(
                 progress,
@@ -171,12 +205,18 @@ pub(super) fn ensure_map(
         data: data.dir.clone(),
         seq: data.train_name.clone(),
         threshold,
+        smoothed_level_px,
         ..MapJob::default()
     };
     note!(progress, "\n== map: {}", model.display());
     let report = job.run(progress)?;
     note!(progress, "{report}");
     Ok(())
+}
+
+/// [`smoothed_level_px`] of a model folder, as an experiment error.
+fn smoothed_level_px_of(model: &Path) -> Result<f64> {
+    smoothed_level_px(model).with_context(|| format!("reading the map of {}", model.display()))
 }
 
 /// SURF features of every test frame, extracted once: with the localizer's test-frame

@@ -42,6 +42,15 @@ pub struct CompareJob {
     /// it (a budget per frame, as the localize job does by default).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = CompareJob::default().threshold))]
     pub threshold: f32,
+    /// Also build the map's smoothed level: the map of the training images smoothed by a
+    /// Gaussian of this σ in pixels, where a frame the map does not register goes next (see
+    /// the map job's `smoothed_level_px`; 0: none). A given `model` whose map has another
+    /// level is refused.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long = "smoothed-level", value_name = "SIGMA_PX", default_value_t = CompareJob::default().smoothed_level_px)
+    )]
+    pub smoothed_level_px: f64,
     /// Use this trained Siamese model (with or without a map) instead of training one.
     #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub model: Option<PathBuf>,
@@ -63,6 +72,7 @@ impl Default for CompareJob {
             epochs: None,
             seed: 0,
             threshold: endoloc_localize::DEFAULT_MAP_THRESHOLD,
+            smoothed_level_px: 0.0,
             model: None,
             methods: Vec::new(),
             force: false,
@@ -195,8 +205,14 @@ struct Saved<'a> {
     epochs: Option<usize>,
     seed: u64,
     threshold: f32,
+    #[serde(skip_serializing_if = "is_zero")]
+    smoothed_level_px: f64,
     model: String,
     methods: Vec<String>,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl CompareJob {
@@ -206,6 +222,7 @@ impl CompareJob {
     /// Bad inputs, a failed stage, or an output folder that holds something else.
     pub fn run(&self, progress: &dyn Progress) -> Result<ExperimentReport<MethodRow>> {
         let args = self;
+        endoloc_jobs::map::check_smoothed_level(args.smoothed_level_px)?;
         common::prepare_out(&args.out, "compare.toml", args.force)?;
         let data = Data::from_args(&args.data)?;
         common::create_out(&args.out, "compare.toml")?;
@@ -227,6 +244,7 @@ impl CompareJob {
             epochs: args.epochs,
             seed: args.seed,
             threshold: args.threshold,
+            smoothed_level_px: args.smoothed_level_px,
             model: model.display().to_string(),
             methods: methods.iter().map(|m| m.name()).collect(),
         };
@@ -242,7 +260,14 @@ impl CompareJob {
             pretrained: None,
         };
         ensure_model(&model, &data, &spec, progress)?;
-        ensure_map(&model, &data, args.threshold, &[], progress)?;
+        ensure_map(
+            &model,
+            &data,
+            args.threshold,
+            args.smoothed_level_px,
+            &[],
+            progress,
+        )?;
         let classifier = ZoneClassifier::load(&model)?;
         classifier.check_compatible(&data_camera(&data)?)?;
         let truth = Truth::of(&data.dir, &data.test, &classifier)?;

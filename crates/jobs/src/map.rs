@@ -114,6 +114,20 @@ pub struct MapReport {
     pub seconds: f64,
 }
 
+/// Checks a smoothed level's σ (`smoothed_level_px`, `--smoothed-level`): finite and ≥ 0.
+///
+/// # Errors
+/// [`JobError::Invalid`] naming the option.
+pub fn check_smoothed_level(sigma_px: f64) -> Result<()> {
+    if sigma_px.is_finite() && sigma_px >= 0.0 {
+        return Ok(());
+    }
+    Err(JobError::Invalid(format!(
+        "the smoothed level's σ (`smoothed_level_px`, `--smoothed-level`) is {sigma_px} px; \
+         expected a finite value >= 0 (0: no smoothed level)"
+    )))
+}
+
 impl MapJob {
     /// The library configuration of this job.
     pub fn map_config(&self) -> MapConfig {
@@ -134,13 +148,7 @@ impl MapJob {
     /// An existing map without `force`, an unreadable model or dataset, a model trained for
     /// another camera, or a failed write.
     pub fn run(&self, progress: &dyn Progress) -> Result<MapReport> {
-        if !(self.smoothed_level_px.is_finite() && self.smoothed_level_px >= 0.0) {
-            return Err(JobError::Invalid(format!(
-                "the smoothed level's σ (`smoothed_level_px`, `--smoothed-level`) is {} px; \
-                 expected a finite value >= 0 (0: no smoothed level)",
-                self.smoothed_level_px
-            )));
-        }
+        check_smoothed_level(self.smoothed_level_px)?;
         if self.model.join("map.bin").exists() && !self.force {
             return Err(JobError::Exists {
                 path: self.model.join("map.bin"),

@@ -186,6 +186,21 @@ pub fn load_smoothed_level(dir: &Path) -> Result<Option<Map>, LocalizeError> {
     load_map(&level_dir).map(Some)
 }
 
+/// The σ of the smoothed level of the map in model folder `dir`, pixels
+/// ([`crate::MapConfig::blur_px`] of `dir/map_smoothed/map.toml`); 0 when the map has no level.
+///
+/// # Errors
+/// [`LocalizeError::File`] for a level `map.toml` that cannot be read or parsed.
+pub fn smoothed_level_px(dir: &Path) -> Result<f64, LocalizeError> {
+    let path = dir.join(SMOOTHED_LEVEL_DIR).join("map.toml");
+    let text = match std::fs::read_to_string(&path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0.0),
+        r => r.map_err(|e| file_err(&path, e))?,
+    };
+    let meta: MapMeta = toml::from_str(&text).map_err(|e| file_err(&path, e))?;
+    Ok(meta.config.blur_px)
+}
+
 /// Reads a map written by [`save_map`]. When `map.bin` does not belong to `map.toml` (a
 /// `map` run killed between its two renames) but the earlier `map.bin` kept beside them does,
 /// that earlier map is read, with a warning.
