@@ -241,7 +241,7 @@ def map(
     intensity: Literal["linear", "log"] = ...,
     delta_r: float = ...,
     observation_radius: float = ...,
-    smoothed_level: float = ...,
+    smoothed_level: float | None = ...,
     force: bool = ...,
     progress: ProgressArg = None,
 ) -> Report:
@@ -261,9 +261,9 @@ def map(
     - ``observation_radius``: Every other training frame of a zone adds its observations
       of the zone's points (matched by projection within this many pixels) before they are
       triangulated again; 0 = only the ``images_per_zone`` images.
-    - ``smoothed_level``: Also build the map's smoothed level (the map of the training
-      images smoothed by a Gaussian of this σ, pixels), where a frame that does not register
-      against the map is registered next; 0 = none.
+    - ``smoothed_level``: σ of the map's smoothed level, pixels: the map of the training
+      images smoothed by a Gaussian, where a frame that does not register against the map
+      is registered next (default: 1.5 per 320 pixels of image width; 0 = none).
     - ``force``: Replace an existing map.
     """
     ...

@@ -24,7 +24,7 @@ def benchmark(
     pretrained: str = ...,
     epochs: int | None = ...,
     seed: int = ...,
-    smoothed_level: float = ...,
+    smoothed_level: float | None = ...,
     methods: Seq[str] = ...,
     colon: str | None = ...,
     print_jobs: bool = ...,
@@ -52,8 +52,8 @@ def benchmark(
       from scratch on each colon.
     - ``epochs``: Training epochs (default: 0 with ``pretrained``, else the schedule's own).
     - ``seed``: Seed of every training.
-    - ``smoothed_level``: Also build each map's smoothed level, of this σ in pixels (see
-      `endoloc.map`'s ``smoothed_level``); 0 = none.
+    - ``smoothed_level``: σ of each map's smoothed level, pixels (`endoloc.map`'s
+      ``smoothed_level``; default: 1.5 per 320 pixels of image width; 0 = none).
     - ``methods``: Methods (default: endoloc-paper, endoloc, endoloc-confirm, endoloc-live,
       endoloc-live-confirm, classify).
     - ``colon``: Run only this colon (`seed-N`, `dev-seed-N` or `ct-<folder>`).
@@ -77,7 +77,7 @@ def changes(
     zones: int | str = ...,
     pretrained: str = ...,
     seed: int = ...,
-    smoothed_level: float = ...,
+    smoothed_level: float | None = ...,
     keep_data: bool = ...,
     colon: str | None = ...,
     print_jobs: bool = ...,
@@ -105,8 +105,8 @@ def changes(
     - ``pretrained``: Start weights of the zone network (`builtin-joint`); ``none``: train
       from scratch on each colon.
     - ``seed``: Seed of every training.
-    - ``smoothed_level``: Also build each map's smoothed level, of this σ in pixels (see
-      `endoloc.map`'s ``smoothed_level``); 0 = none.
+    - ``smoothed_level``: σ of each map's smoothed level, pixels (`endoloc.map`'s
+      ``smoothed_level``; default: 1.5 per 320 pixels of image width; 0 = none).
     - ``keep_data``: Keep each condition's dataset (deleted once its figures are written).
     - ``colon``: Run only this colon (`seed-N` or `ct-<folder>`).
     - ``print_jobs``: Print one command per colon and the merge command, and stop.
@@ -125,7 +125,7 @@ def compare(
     epochs: int | None = ...,
     seed: int = ...,
     threshold: float = ...,
-    smoothed_level: float = ...,
+    smoothed_level: float | None = ...,
     model: StrPath | None = ...,
     methods: Seq[str] = ...,
     force: bool = ...,
@@ -144,9 +144,9 @@ def compare(
     - ``seed``: Seed of every training.
     - ``threshold``: SURF threshold of the maps; test frames keep their strongest keypoints
       above 0.4 times it (a budget per frame, as the localize job does by default)
-    - ``smoothed_level``: Also build the map's smoothed level, of this σ in pixels (see
-      `endoloc.map`'s ``smoothed_level``); 0 = none. A given ``model`` whose map has
-      another level is refused.
+    - ``smoothed_level``: σ of the map's smoothed level, pixels (`endoloc.map`'s
+      ``smoothed_level``; default: 1.5 per 320 pixels of image width; 0 = none). A given
+      ``model`` whose map has another level is refused.
     - ``model``: Use this trained Siamese model (with or without a map) instead of
       training one.
     - ``methods``: Methods to run (default: all).

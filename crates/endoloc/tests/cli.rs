@@ -671,7 +671,7 @@ fn every_method_and_experiment_writes_its_outputs() {
         err.contains("σ 1 px") && err.contains("--smoothed-level 2 --force"),
         "{err}"
     );
-    map_with_level(&[]);
+    map_with_level(&["--smoothed-level", "0"]);
     assert!(!st.root.join("model/map_smoothed").exists());
     let map_toml = std::fs::read_to_string(st.root.join("model/map.toml")).unwrap();
     assert!(

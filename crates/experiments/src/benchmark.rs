@@ -74,13 +74,10 @@ pub struct BenchmarkJob {
     /// Seed of every training.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = BenchmarkJob::default().seed))]
     pub seed: u64,
-    /// Also build each map's smoothed level, of this σ in pixels (see the map job's
-    /// `smoothed_level_px`; 0: none).
-    #[cfg_attr(
-        feature = "cli",
-        arg(long = "smoothed-level", value_name = "SIGMA_PX", default_value_t = BenchmarkJob::default().smoothed_level_px)
-    )]
-    pub smoothed_level_px: f64,
+    /// σ of each map's smoothed level, pixels (the map job's `smoothed_level_px`; default: 1.5
+    /// per 320 pixels of image width; 0: none).
+    #[cfg_attr(feature = "cli", arg(long = "smoothed-level", value_name = "SIGMA_PX"))]
+    pub smoothed_level_px: Option<f64>,
     /// Methods (default: endoloc-paper, endoloc, endoloc-confirm, endoloc-live,
     /// endoloc-live-confirm, classify; see the compare experiment).
     #[cfg_attr(feature = "cli", arg(long, value_delimiter = ','))]
@@ -121,7 +118,7 @@ impl Default for BenchmarkJob {
             pretrained: "builtin-joint".into(),
             epochs: None,
             seed: 0,
-            smoothed_level_px: 0.0,
+            smoothed_level_px: None,
             methods: Vec::new(),
             colon: None,
             print_jobs: false,
@@ -372,8 +369,8 @@ impl BenchmarkJob {
             c.push_str(&format!(" --changes {}", s.name()));
         }
         c.push_str(&format!(" --pretrained {}", shell_quote(&self.pretrained)));
-        if self.smoothed_level_px != 0.0 {
-            c.push_str(&format!(" --smoothed-level {}", self.smoothed_level_px));
+        if let Some(s) = self.smoothed_level_px {
+            c.push_str(&format!(" --smoothed-level {s}"));
         }
         if let Some(e) = self.epochs {
             c.push_str(&format!(" --epochs {e}"));

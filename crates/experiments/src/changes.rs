@@ -244,13 +244,10 @@ pub struct ChangesJob {
     /// Seed of every training.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ChangesJob::default().seed))]
     pub seed: u64,
-    /// Also build each map's smoothed level, of this σ in pixels (see the map job's
-    /// `smoothed_level_px`; 0: none).
-    #[cfg_attr(
-        feature = "cli",
-        arg(long = "smoothed-level", value_name = "SIGMA_PX", default_value_t = ChangesJob::default().smoothed_level_px)
-    )]
-    pub smoothed_level_px: f64,
+    /// σ of each map's smoothed level, pixels (the map job's `smoothed_level_px`; default: 1.5
+    /// per 320 pixels of image width; 0: none).
+    #[cfg_attr(feature = "cli", arg(long = "smoothed-level", value_name = "SIGMA_PX"))]
+    pub smoothed_level_px: Option<f64>,
     /// Keep each condition's dataset (by default it is deleted once its figures are written:
     /// a condition of the `small` preset takes about 50 MB).
     #[cfg_attr(feature = "cli", arg(long))]
@@ -285,7 +282,7 @@ impl Default for ChangesJob {
             zones: ZoneSpec::default(),
             pretrained: "builtin-joint".into(),
             seed: 0,
-            smoothed_level_px: 0.0,
+            smoothed_level_px: None,
             keep_data: false,
             colon: None,
             print_jobs: false,
@@ -487,8 +484,8 @@ impl ChangesJob {
             c.push_str(&format!(" --severities {}", s.join(",")));
         }
         c.push_str(&format!(" --pretrained {}", shell_quote(&self.pretrained)));
-        if self.smoothed_level_px != 0.0 {
-            c.push_str(&format!(" --smoothed-level {}", self.smoothed_level_px));
+        if let Some(s) = self.smoothed_level_px {
+            c.push_str(&format!(" --smoothed-level {s}"));
         }
         if self.keep_data {
             c.push_str(" --keep-data");

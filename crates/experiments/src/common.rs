@@ -26,6 +26,7 @@ use endoloc_localize::{
 };
 use endoloc_net::{ZoneClassifier, ZonePrediction, ZoneSpec, viterbi};
 
+use endoloc_jobs::map::smoothed_level_sigma;
 pub(super) use endoloc_jobs::predict::predict_zones;
 use endoloc_jobs::{MapJob, TrainJob};
 use rayon::prelude::*;
@@ -65,6 +66,8 @@ pub(super) struct Data {
     pub test: Sequence,
     /// Name of the training sequence.
     pub train_name: String,
+    /// Width of the dataset's images, pixels.
+    pub width: u32,
 }
 
 impl Data {
@@ -88,6 +91,7 @@ impl Data {
             dir: dir.to_path_buf(),
             test,
             train_name: train.to_string(),
+            width: ds.meta.camera.width,
         })
     }
 }
@@ -134,8 +138,9 @@ pub(super) fn ensure_model(
     Ok(true)
 }
 
-/// Builds the per-zone maps of `model`, with a smoothed level of σ `smoothed_level_px` pixels
-/// (0: none; the map job's `smoothed_level_px`), unless it has them; a map already there with
+/// Builds the per-zone maps of `model`, with the smoothed level `smoothed_level_px` asks for
+/// (the map job's option: σ in pixels, `None` the default for the images' width, 0 none),
+/// unless it has them; a map already there with
 /// another level is refused, not rebuilt. Maps depend on the zone table and the training
 /// data, not on the training seed: when `share_from` holds a map with the same level built
 /// for an identical zone table (same `zones.csv`), it is copied instead of rebuilt.
@@ -143,10 +148,12 @@ pub(super) fn ensure_map(
     model: &Path,
     data: &Data,
     threshold: f32,
-    smoothed_level_px: f64,
+    smoothed_level_px: Option<f64>,
     share_from: &[PathBuf],
     progress: &dyn Progress,
 ) -> Result<()> {
+    let asked = smoothed_level_px;
+    let smoothed_level_px = smoothed_level_sigma(asked, data.width);
     if model.join("map.bin").is_file() {
         let found = smoothed_level_px_of(model)?;
         if found != smoothed_level_px {
@@ -205,7 +212,7 @@ pub(super) fn ensure_map(
         data: data.dir.clone(),
         seq: data.train_name.clone(),
         threshold,
-        smoothed_level_px,
+        smoothed_level_px: asked,
         ..MapJob::default()
     };
     note!(progress, "\n== map: {}", model.display());

@@ -42,15 +42,11 @@ pub struct CompareJob {
     /// it (a budget per frame, as the localize job does by default).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = CompareJob::default().threshold))]
     pub threshold: f32,
-    /// Also build the map's smoothed level: the map of the training images smoothed by a
-    /// Gaussian of this σ in pixels, where a frame the map does not register goes next (see
-    /// the map job's `smoothed_level_px`; 0: none). A given `model` whose map has another
-    /// level is refused.
-    #[cfg_attr(
-        feature = "cli",
-        arg(long = "smoothed-level", value_name = "SIGMA_PX", default_value_t = CompareJob::default().smoothed_level_px)
-    )]
-    pub smoothed_level_px: f64,
+    /// σ of the map's smoothed level, pixels (the map job's `smoothed_level_px`; default: 1.5
+    /// per 320 pixels of image width; 0: none). A given `model` whose map has another level
+    /// is refused.
+    #[cfg_attr(feature = "cli", arg(long = "smoothed-level", value_name = "SIGMA_PX"))]
+    pub smoothed_level_px: Option<f64>,
     /// Use this trained Siamese model (with or without a map) instead of training one.
     #[cfg_attr(feature = "cli", arg(long, value_name = "DIR"))]
     pub model: Option<PathBuf>,
@@ -72,7 +68,7 @@ impl Default for CompareJob {
             epochs: None,
             seed: 0,
             threshold: endoloc_localize::DEFAULT_MAP_THRESHOLD,
-            smoothed_level_px: 0.0,
+            smoothed_level_px: None,
             model: None,
             methods: Vec::new(),
             force: false,
@@ -205,14 +201,10 @@ struct Saved<'a> {
     epochs: Option<usize>,
     seed: u64,
     threshold: f32,
-    #[serde(skip_serializing_if = "is_zero")]
-    smoothed_level_px: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    smoothed_level_px: Option<f64>,
     model: String,
     methods: Vec<String>,
-}
-
-fn is_zero(v: &f64) -> bool {
-    *v == 0.0
 }
 
 impl CompareJob {

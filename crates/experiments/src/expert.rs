@@ -148,7 +148,7 @@ impl ExpertJob {
                 },
                 progress,
             )?;
-            ensure_map(&model, &data, args.threshold, 0.0, &[], progress)?;
+            ensure_map(&model, &data, args.threshold, None, &[], progress)?;
             let classifier = ZoneClassifier::load(&model)?;
             let surf = load_map(&model)?.config.surf.clone();
             let cache = FeatureCache::get(&mut features, &data.test, &surf, progress)?;

@@ -132,7 +132,7 @@ impl PerturbJob {
             },
             progress,
         )?;
-        ensure_map(&model, &data, args.threshold, 0.0, &[], progress)?;
+        ensure_map(&model, &data, args.threshold, None, &[], progress)?;
         let classifier = ZoneClassifier::load(&model)?;
         let map = load_map(&model)?;
         let mut surf = map.config.surf.clone();

@@ -425,7 +425,7 @@ impl ZoneSweepJob {
             pretrained: args.pretrained.clone(),
         };
         ensure_model(dir, data, &spec, progress)?;
-        ensure_map(dir, data, args.threshold, 0.0, &run_dirs, progress)?;
+        ensure_map(dir, data, args.threshold, None, &run_dirs, progress)?;
         let classifier = ZoneClassifier::load(dir)?;
         let map_surf = endoloc_localize::map_io::load_map(dir)?.config.surf.clone();
         let cache = FeatureCache::get(features, &data.test, &map_surf, progress)?;

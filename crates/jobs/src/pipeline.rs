@@ -497,8 +497,10 @@ impl MapJob {
             )
             .arg_if(
                 "smoothed-level",
-                &self.smoothed_level_px,
-                &d.smoothed_level_px,
+                &self
+                    .smoothed_level_px
+                    .map_or(String::new(), |s| s.to_string()),
+                &String::new(),
             )
             .flag("force", self.force)
             .finish()

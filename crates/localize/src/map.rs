@@ -49,12 +49,12 @@ pub struct MapConfig {
     /// `images_per_zone` images only. At 3 px, median errors drop by 5–10 % across colons,
     /// but live localization's few wrong `refined` frames do not (docs/RESULTS.md).
     pub observation_radius_px: f64,
-    /// Beyond the paper (opt-in): the training images are smoothed by a Gaussian of this
+    /// Beyond the paper: the training images are smoothed by a Gaussian of this
     /// standard deviation, pixels, before SURF detects and describes them; the frames
     /// localized against the map are described as they are. A map of the coarser structure,
     /// whose descriptors hold better when the pass being localized has another look (fainter
     /// texture, highlights, a blurred scope). 0 (default) = the images as they are. The
-    /// map's smoothed level is a map built with it (`endoloc map --smoothed-level`), where a
+    /// map's smoothed level is a map built with it (by `endoloc map`, by default), where a
     /// frame that the map does not register goes next ([`crate::Localizer::with_smoothed_level`]).
     /// Not written to `map.toml` when 0, so a map built without it reads as before.
     #[serde(skip_serializing_if = "is_zero")]

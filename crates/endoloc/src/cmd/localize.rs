@@ -6,14 +6,15 @@ use endoloc_jobs::{LocalizeJob, MapJob, Progress};
 /// Build the per-zone 3-D maps of a trained model: SURF tracks over `m` images of each zone,
 /// triangulated with the known training poses; points reprojecting farther than δr are
 /// dropped. Writes map.toml and map.bin into the model folder, one PLY per zone
-/// (map_ply/zone_NNN.ply) and a COLMAP text model (map_colmap/). With --smoothed-level σ
-/// also the map of the training images smoothed by a Gaussian of σ pixels (map_smoothed/),
-/// where localize registers a frame that the map does not.
+/// (map_ply/zone_NNN.ply) and a COLMAP text model (map_colmap/), and the map's smoothed
+/// level: the map of the training images smoothed by a Gaussian (map_smoothed/; σ 1.5 px per
+/// 320 px of image width, --smoothed-level to choose, 0 for none), where localize registers
+/// a frame that the map does not.
 ///
 /// Examples:
 ///
 ///   endoloc map --model models/small --data data/small
-///   endoloc map --model models/small --data data/small --smoothed-level 1.5 --force
+///   endoloc map --model models/small --data data/small --smoothed-level 0 --force
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct MapArgs {

@@ -24,10 +24,10 @@
 //! [`LocalizerConfig::retry_threshold`]) and tried once more: brute-force matching finds
 //! fewer look-alikes among them.
 //!
-//! A map may have a smoothed level (opt-in, [`Localizer::with_smoothed_level`]): the map of
-//! the training images smoothed by a Gaussian. A frame that the map does not register, tracked
-//! or searched for, is registered the same way against the level, whose coarser structure
-//! holds when the pass has another look than the mapping pass.
+//! A map may have a smoothed level ([`Localizer::with_smoothed_level`]; the map job builds one
+//! by default): the map of the training images smoothed by a Gaussian. A frame that the map
+//! does not register, tracked or searched for, is registered the same way against the level,
+//! whose coarser structure holds when the pass has another look than the mapping pass.
 
 mod config;
 mod frame;
