@@ -145,8 +145,8 @@ def compare(
     - ``threshold``: SURF threshold of the maps; test frames keep their strongest keypoints
       above 0.4 times it (a budget per frame, as the localize job does by default)
     - ``smoothed_level``: σ of the map's smoothed level, pixels (`endoloc.map`'s
-      ``smoothed_level``; default: 1.5 per 320 pixels of image width; 0 = none). A given
-      ``model`` whose map has another level is refused.
+      ``smoothed_level``; default: 1.5 per 320 pixels of image width; 0 = none). The map
+      of a given ``model`` is used as it is, and refused when this names another level.
     - ``model``: Use this trained Siamese model (with or without a map) instead of
       training one.
     - ``methods``: Methods to run (default: all).

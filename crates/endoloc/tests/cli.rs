@@ -645,34 +645,24 @@ fn every_method_and_experiment_writes_its_outputs() {
     localize_live("run-level");
     check_run_files(&st.root.join("run-level"), 40);
     // An experiment asked for that level uses the map as it is; asked for another, it refuses
-    // the model and says how to build it.
-    let compare_level = |sigma: &str, out: &str, succeeds: bool| {
-        let args = [
-            "experiment",
-            "compare",
-            "--data",
-            &data,
-            "--model",
-            &model,
-            "--threshold",
-            "20",
-            "--methods",
-            "classify",
-            "--smoothed-level",
-            sigma,
-            "--out",
-            out,
-        ];
+    // the model and says how to build it; asked for none in particular, it uses any map.
+    let compare_level = |sigma: Option<&str>, out: &str, succeeds: bool| {
+        let mut args = vec!["experiment", "compare", "--data", &data, "--model", &model];
+        args.extend_from_slice(&["--threshold", "20", "--methods", "classify", "--out", out]);
+        if let Some(sigma) = sigma {
+            args.extend_from_slice(&["--smoothed-level", sigma]);
+        }
         if succeeds { ok(&args) } else { fails(&args) }
     };
-    compare_level("1.0", &r("compare-level"), true);
-    let err = compare_level("2.0", &r("compare-level-2"), false);
+    compare_level(Some("1.0"), &r("compare-level"), true);
+    let err = compare_level(Some("2.0"), &r("compare-level-2"), false);
     assert!(
         err.contains("σ 1 px") && err.contains("--smoothed-level 2 --force"),
         "{err}"
     );
     map_with_level(&["--smoothed-level", "0"]);
     assert!(!st.root.join("model/map_smoothed").exists());
+    compare_level(None, &r("compare-level-none"), true);
     let map_toml = std::fs::read_to_string(st.root.join("model/map.toml")).unwrap();
     assert!(
         !map_toml.contains("blur_px"),

@@ -140,8 +140,8 @@ pub(super) fn ensure_model(
 
 /// Builds the per-zone maps of `model`, with the smoothed level `smoothed_level_px` asks for
 /// (the map job's option: σ in pixels, `None` the default for the images' width, 0 none),
-/// unless it has them; a map already there with
-/// another level is refused, not rebuilt. Maps depend on the zone table and the training
+/// unless it has a map; a map already there is used as it is, and refused (not rebuilt) when
+/// `smoothed_level_px` names another level. Maps depend on the zone table and the training
 /// data, not on the training seed: when `share_from` holds a map with the same level built
 /// for an identical zone table (same `zones.csv`), it is copied instead of rebuilt.
 pub(super) fn ensure_map(
@@ -155,8 +155,9 @@ pub(super) fn ensure_map(
     let asked = smoothed_level_px;
     let smoothed_level_px = smoothed_level_sigma(asked, data.width);
     if model.join("map.bin").is_file() {
+        // A map already there is used as it is unless another level was asked for by name.
         let found = smoothed_level_px_of(model)?;
-        if found != smoothed_level_px {
+        if asked.is_some() && found != smoothed_level_px {
             let has = |s: f64| {
                 if s > 0.0 {
                     format!("a smoothed level of σ {s} px")

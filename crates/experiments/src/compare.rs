@@ -43,8 +43,8 @@ pub struct CompareJob {
     #[cfg_attr(feature = "cli", arg(long, default_value_t = CompareJob::default().threshold))]
     pub threshold: f32,
     /// σ of the map's smoothed level, pixels (the map job's `smoothed_level_px`; default: 1.5
-    /// per 320 pixels of image width; 0: none). A given `model` whose map has another level
-    /// is refused.
+    /// per 320 pixels of image width; 0: none). The map of a given `model` is used as it is,
+    /// and refused when this names another level.
     #[cfg_attr(feature = "cli", arg(long = "smoothed-level", value_name = "SIGMA_PX"))]
     pub smoothed_level_px: Option<f64>,
     /// Use this trained Siamese model (with or without a map) instead of training one.
