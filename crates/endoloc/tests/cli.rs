@@ -148,19 +148,14 @@ fn every_method_and_experiment_writes_its_outputs() {
     let st = setup();
     let r = |p: &str| s(&st.root.join(p));
 
-    // `endoloc localize --live` of the test pass into `out`.
-    let localize_live = |out: &str| {
-        ok(&[
-            "localize",
-            "--model",
-            &r("model"),
-            "--seq",
-            &r("data/test"),
-            "--out",
-            &r(out),
-            "--live",
-        ])
+    // `endoloc localize` of the test pass into `out`, with `extra` options.
+    let localize = |out: &str, extra: &[&str]| {
+        let (model, seq, out) = (r("model"), r("data/test"), r(out));
+        let mut args = vec!["localize", "--model", &model, "--seq", &seq, "--out", &out];
+        args.extend_from_slice(extra);
+        ok(&args)
     };
+    let localize_live = |out: &str| localize(out, &["--live"]);
     // Our method, live, then evaluated.
     localize_live("run");
     let frames = std::fs::read_to_string(st.root.join("run/frames.csv")).unwrap();
@@ -192,15 +187,7 @@ fn every_method_and_experiment_writes_its_outputs() {
         "bench refines {current:?}, localize --live {percent}"
     );
     // Per frame: frames are localized in parallel blocks and written in frame order.
-    ok(&[
-        "localize",
-        "--model",
-        &r("model"),
-        "--seq",
-        &r("data/test"),
-        "--out",
-        &r("run-per-frame"),
-    ]);
+    localize("run-per-frame", &[]);
     check_run_files(&st.root.join("run-per-frame"), 40);
     // Registrations are confirmed against the map unless told otherwise, and the run's
     // settings say which.

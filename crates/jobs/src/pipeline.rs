@@ -495,13 +495,7 @@ impl MapJob {
                 &self.observation_radius_px,
                 &d.observation_radius_px,
             )
-            .arg_if(
-                "smoothed-level",
-                &self
-                    .smoothed_level_px
-                    .map_or(String::new(), |s| s.to_string()),
-                &String::new(),
-            )
+            .opt("smoothed-level", self.smoothed_level_px)
             .flag("force", self.force)
             .finish()
     }
