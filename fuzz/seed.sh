@@ -246,6 +246,11 @@ put("source_image", "0000_depth.tiff", tiff16(4, 3, [0, 100, 65535, 2000, 3, 4, 
 n, dim = 3, 2
 db = b"EDLCDB01" + struct.pack("<II", n, dim) + struct.pack("<3I", 0, 1, 1) + struct.pack("<6f", 1, 0, 0.6, 0.8, 0, 1)
 put("database_bin", "database.bin", b"\x02" + db)
+# The same frames with a zoom-blurred view each: rows carry their training frame.
+n = 6
+db2 = (b"EDLCDB02" + struct.pack("<II", n, dim) + struct.pack("<6I", 0, 1, 1, 0, 1, 1)
+       + struct.pack("<6I", 0, 1, 2, 0, 1, 2) + struct.pack("<12f", 1, 0, 0.6, 0.8, 0, 1, 0.9, 0.1, 0.5, 0.8, 0.1, 1))
+put("database_bin", "database_views.bin", b"\x02" + db2)
 
 dim = 2
 wh = b"ELWHITE1" + struct.pack("<If", dim, 0.25) + struct.pack("<6f", 0.1, -0.2, 1, 0, 0, 1)

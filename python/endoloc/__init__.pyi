@@ -171,6 +171,7 @@ def train(
     zone_fraction: float | None = ...,
     whitening: float | None = ...,
     database_smoothing: float | None = ...,
+    index_zoom_blur: str | None = ...,
     schedule: str = ...,
     config: StrPath | None = ...,
     epochs: int | None = ...,
@@ -215,6 +216,8 @@ def train(
     - ``whitening``: Power of the partial PCA whitening of the descriptors (0: none).
     - ``database_smoothing``: Database smoothing along the training pass, ± mm of camera
       path (0: none).
+    - ``index_zoom_blur``: Zoom-blurred views of every training frame in the database:
+      amplitudes `A,..` of the magnification 1 ± A, or `none`.
     - ``schedule``: Schedule preset: `fast` or `paper`.
     - ``config``: Training settings from a TOML file (fields of `TrainConfig`),
       overridden by the above.

@@ -126,6 +126,12 @@ pub struct TrainJob {
     /// still looked up one by one.
     #[cfg_attr(feature = "cli", arg(long, value_name = "MM"))]
     pub database_smoothing: Option<f64>,
+    /// Zoom-blurred views of every training frame added to the database, amplitudes of the
+    /// magnification `1 ± A` (a scope moving along its axis during the exposure), comma
+    /// separated, e.g. 0.03,0.06,0.12; `none` (the default): the sharp rows alone. A
+    /// motion-blurred test frame then finds its zone among views that look like it.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "A,..|none"))]
+    pub index_zoom_blur: Option<String>,
     /// Schedule preset: `fast` (150 epochs of 128+128 pairs, batch 64 pairs sharing images,
     /// Adam 1e-3 → 1e-4) or `paper` (500 epochs of 128+128 pairs, batch 128, Adam 1e-3).
     #[cfg_attr(
@@ -202,6 +208,7 @@ impl Default for TrainJob {
             zone_fraction: None,
             whitening: None,
             database_smoothing: None,
+            index_zoom_blur: None,
             schedule: SchedulePreset::default(),
             config: None,
             epochs: None,
@@ -250,6 +257,25 @@ pub struct SiameseReport {
     pub extra_sequences: Vec<PathBuf>,
     /// Wall time, seconds.
     pub seconds: f64,
+}
+
+/// The amplitudes of `--index-zoom-blur`: `A,B,…` (each in (0, 0.5]) or `none`.
+///
+/// # Errors
+/// A value that is not a number, or out of range, named with the option.
+fn parse_zoom_blur(list: &str) -> Result<Vec<f64>> {
+    if list.trim() == "none" {
+        return Ok(Vec::new());
+    }
+    list.split(',')
+        .map(|a| match a.trim().parse::<f64>() {
+            Ok(v) if v > 0.0 && v <= 0.5 => Ok(v),
+            _ => Err(JobError::Invalid(format!(
+                "`index_zoom_blur` {list:?}: expected amplitudes in (0, 0.5] separated by commas \
+                 (e.g. 0.03,0.06,0.12), or none"
+            ))),
+        })
+        .collect()
 }
 
 /// `pairs`, `pair_frames` (`P,N`), `near_fraction` and `zone_fraction` applied to `rule`.
@@ -381,6 +407,9 @@ impl TrainJob {
         }
         if let Some(mm) = args.database_smoothing {
             cfg.database_smoothing_mm = mm;
+        }
+        if let Some(list) = &args.index_zoom_blur {
+            cfg.index_zoom_blur = parse_zoom_blur(list)?;
         }
         cfg.seed = args.seed;
         cfg.device = args.device.name().to_string();
@@ -664,6 +693,26 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("compact backbone"), "{e}");
+        // Zoom-blurred index views: off by default, a list, `none`, bad values named.
+        assert!(config(job()).unwrap().index_zoom_blur.is_empty());
+        let views = |list: &str| {
+            config(TrainJob {
+                index_zoom_blur: Some(list.into()),
+                ..job()
+            })
+        };
+        assert_eq!(
+            views("0.03, 0.06,0.12").unwrap().index_zoom_blur,
+            [0.03, 0.06, 0.12]
+        );
+        assert!(views("none").unwrap().index_zoom_blur.is_empty());
+        for bad in ["0.7", "0", "a", "0.1,"] {
+            let e = views(bad).unwrap_err().to_string();
+            assert!(
+                e.contains("`index_zoom_blur`") && e.contains("(0, 0.5]"),
+                "{bad}: {e}"
+            );
+        }
     }
 
     #[test]

@@ -80,7 +80,7 @@ impl std::fmt::Debug for ZoneClassifier {
         f.debug_struct("ZoneClassifier")
             .field("nets", &nets)
             .field("zones", &self.zones.len())
-            .field("frames", &self.database.len())
+            .field("frames", &self.database.frame_count())
             .finish()
     }
 }
@@ -127,12 +127,24 @@ impl ZoneClassifier {
                 config.backbone.descriptor_dim()
             )));
         }
-        if database.len() != zones.frame_count() || database.len() != config.frames {
+        if database.frame_count() != zones.frame_count() || database.frame_count() != config.frames
+        {
             return Err(incompatible(format!(
-                "{DATABASE_FILE} has {} rows, {ZONES_FILE} covers {} frames, model.toml says {}",
-                database.len(),
+                "{DATABASE_FILE} has rows of {} frames, {ZONES_FILE} covers {} frames, model.toml says {}",
+                database.frame_count(),
                 zones.frame_count(),
                 config.frames
+            )));
+        }
+        if let Some((r, f)) = database
+            .frame_of_row
+            .iter()
+            .enumerate()
+            .find(|&(r, &f)| database.zone_of_row[r] != zones.zone_of_frame[f])
+        {
+            return Err(incompatible(format!(
+                "{DATABASE_FILE}: row {r} (training frame {f}) is in zone {}, {ZONES_FILE} puts the frame in zone {}",
+                database.zone_of_row[r], zones.zone_of_frame[*f]
             )));
         }
         let poses_path = dir.join(model::POSES_FILE);
@@ -191,15 +203,15 @@ impl ZoneClassifier {
             .as_ref()
             .is_some_and(|w| w.dim != config.backbone.descriptor_dim())
             || database.dim != config.backbone.descriptor_dim()
-            || database.len() != zones.frame_count()
+            || database.frame_count() != zones.frame_count()
             || train_poses.len() != zones.frame_count()
             || database.zones != zones.len()
         {
             return Err(NetError::Incompatible {
                 model: dir,
                 message: format!(
-                    "parts disagree: database {} rows of {} ({} zones), {} zones over {} frames, {} poses, descriptor length {}, whitening length {}",
-                    database.len(),
+                    "parts disagree: database rows of {} frames of {} ({} zones), {} zones over {} frames, {} poses, descriptor length {}, whitening length {}",
+                    database.frame_count(),
                     database.dim,
                     database.zones,
                     zones.len(),

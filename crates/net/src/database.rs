@@ -8,8 +8,14 @@
 //! loss", and for a similar pair that loss is `½ d²`, increasing in `d`. **Zone scores are
 //! distances: lower is better**, in descriptor units (unit-length descriptors: `0 ≤ d ≤ 2`).
 //!
-//! File format (`database.bin`, little-endian): the 8 bytes `EDLCDB01`, `u32` frame count
-//! `n`, `u32` descriptor length `dim`, `n × u32` zone indices, `n × dim × f32` descriptors.
+//! A training frame may have several rows (its zoom-blurred views,
+//! [`TrainConfig::index_zoom_blur`](crate::TrainConfig::index_zoom_blur)): a zone's score and
+//! a frame's distance are those of its nearest row.
+//!
+//! File format (`database.bin`, little-endian): the 8 bytes `EDLCDB01`, `u32` row count `n`,
+//! `u32` descriptor length `dim`, `n × u32` zone indices, `n × dim × f32` descriptors; row `i`
+//! is training frame `i`. A database whose rows are not the frames one by one is written as
+//! `EDLCDB02`: the same, with `n × u32` training frames after the zone indices.
 
 use crate::NetError;
 use crate::binfile;
@@ -20,6 +26,8 @@ use std::path::Path;
 pub const DATABASE_FILE: &str = "database.bin";
 
 const MAGIC: &[u8; 8] = b"EDLCDB01";
+/// The format with each row's training frame.
+const MAGIC_ROWS: &[u8; 8] = b"EDLCDB02";
 
 /// How a zone's score is computed from the distances to its descriptors.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -227,6 +235,11 @@ impl DescriptorDatabase {
         Ok(out)
     }
 
+    /// Whether row `i` is training frame `i` for every row (the `EDLCDB01` layout).
+    fn rows_are_frames(&self) -> bool {
+        self.frame_of_row.iter().enumerate().all(|(i, &f)| i == f)
+    }
+
     /// Writes `database.bin` (see the module documentation for the layout).
     ///
     /// # Errors
@@ -236,13 +249,22 @@ impl DescriptorDatabase {
             (self.len() as u32).to_le_bytes(),
             (self.dim as u32).to_le_bytes(),
         ];
-        let mut out = binfile::start(MAGIC, header, self.len() * (4 + 4 * self.dim));
+        let one_per_frame = self.rows_are_frames();
+        let (magic, frame_words) = if one_per_frame {
+            (MAGIC, 0)
+        } else {
+            (MAGIC_ROWS, 4)
+        };
+        let mut out = binfile::start(magic, header, self.len() * (4 + frame_words + 4 * self.dim));
         binfile::put_u32(&mut out, self.zone_of_row.iter().map(|&z| z as u32));
+        if !one_per_frame {
+            binfile::put_u32(&mut out, self.frame_of_row.iter().map(|&f| f as u32));
+        }
         binfile::put_f32(&mut out, &self.descriptors);
         std::fs::write(path, out).map_err(|e| NetError::io(path, e))
     }
 
-    /// Reads `database.bin` for a model of `zones` zones; rows are training frames `0..n`.
+    /// Reads `database.bin` for a model of `zones` zones.
     ///
     /// # Errors
     /// [`NetError::Io`] if unreadable; [`NetError::Parse`] for a bad header, a truncated
@@ -257,20 +279,23 @@ impl DescriptorDatabase {
     /// # Errors
     /// [`NetError::Parse`] for a bad header, a truncated file or a zone index `≥ zones`.
     pub fn from_bytes(path: &Path, bytes: &[u8], zones: usize) -> Result<Self, NetError> {
-        binfile::check_header(path, bytes, MAGIC, "descriptor database")?;
+        let with_frames = bytes.len() >= 8 && &bytes[..8] == MAGIC_ROWS;
+        let magic = if with_frames { MAGIC_ROWS } else { MAGIC };
+        binfile::check_header(path, bytes, magic, "descriptor database")?;
         let bad = |m: String| NetError::parse(path, 0, m);
         let n = u32::from_le_bytes(binfile::word(bytes, 8)) as usize;
         let dim = u32::from_le_bytes(binfile::word(bytes, 12)) as usize;
+        let words = if with_frames { 2 } else { 1 };
         // In u128: a damaged header's counts must not overflow.
-        let expected = binfile::HEADER as u128 + 4 * n as u128 * (1 + dim as u128);
+        let expected = binfile::HEADER as u128 + 4 * n as u128 * (words + dim as u128);
         if bytes.len() as u128 != expected {
             return Err(bad(format!(
                 "{} bytes; expected {expected} for {n} descriptors of length {dim}",
                 bytes.len()
             )));
         }
-        let off = binfile::HEADER + 4 * n;
-        let zone_of_row: Vec<usize> = binfile::u32s(&bytes[binfile::HEADER..off])
+        let zone_end = binfile::HEADER + 4 * n;
+        let zone_of_row: Vec<usize> = binfile::u32s(&bytes[binfile::HEADER..zone_end])
             .map(|z| z as usize)
             .collect();
         if let Some((i, z)) = zone_of_row.iter().enumerate().find(|(_, z)| **z >= zones) {
@@ -278,8 +303,24 @@ impl DescriptorDatabase {
                 "row {i} has zone {z}; the model has {zones} zones"
             )));
         }
+        let (frame_of_row, off) = if with_frames {
+            let end = zone_end + 4 * n;
+            let frames: Vec<usize> = binfile::u32s(&bytes[zone_end..end])
+                .map(|f| f as usize)
+                .collect();
+            // A frame index past the row count is damage: a database holds at least one row
+            // per frame.
+            if let Some((i, f)) = frames.iter().enumerate().find(|(_, f)| **f >= n) {
+                return Err(bad(format!(
+                    "row {i} has training frame {f}; the database has {n} rows"
+                )));
+            }
+            (frames, end)
+        } else {
+            ((0..n).collect(), zone_end)
+        };
         let descriptors = binfile::f32s(&bytes[off..]);
-        DescriptorDatabase::new(dim, zones, descriptors, zone_of_row)
+        DescriptorDatabase::from_rows(dim, zones, descriptors, zone_of_row, frame_of_row)
     }
 }
 
@@ -479,5 +520,41 @@ mod tests {
         std::fs::write(&p, b"EDLCDB0").unwrap();
         let err = DescriptorDatabase::load(&p, 2).unwrap_err().to_string();
         assert!(err.contains("bad header"), "{err}");
+    }
+
+    #[test]
+    fn rows_of_views_keep_their_frames_through_a_file() {
+        // Two frames and a blurred view of each: rows 2 and 3 are frames 0 and 1 again.
+        let d = DescriptorDatabase::from_rows(
+            2,
+            2,
+            vec![0.0, 0.0, 0.0, 1.0, 0.1, 0.0, 0.0, 0.9],
+            vec![0, 1, 0, 1],
+            vec![0, 1, 0, 1],
+        )
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join(DATABASE_FILE);
+        d.save(&p).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        assert_eq!(&bytes[..8], b"EDLCDB02");
+        let back = DescriptorDatabase::load(&p, 2).unwrap();
+        assert_eq!(back, d);
+        assert_eq!(back.frame_count(), 2);
+        assert_eq!(
+            back.lookup(&[0.0, 0.85], ScoreRule::Nearest)
+                .unwrap()
+                .nearest_frame,
+            1
+        );
+        // A frame index past the rows is named.
+        let mut damaged = bytes.clone();
+        damaged[16 + 4 * 4 + 4..16 + 4 * 4 + 8].copy_from_slice(&9u32.to_le_bytes());
+        std::fs::write(&p, &damaged).unwrap();
+        let err = DescriptorDatabase::load(&p, 2).unwrap_err().to_string();
+        assert!(err.contains("row 1 has training frame 9"), "{err}");
+        // One row per frame in order is still written as before.
+        db().save(&p).unwrap();
+        assert_eq!(&std::fs::read(&p).unwrap()[..8], b"EDLCDB01");
     }
 }

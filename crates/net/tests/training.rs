@@ -766,6 +766,29 @@ fn zero_epochs_index_the_pass_with_the_start_weights_and_need_them() {
     assert_eq!(c.database().descriptors, want);
     assert_ne!(c.database().descriptors, a.database().descriptors);
 
+    // Zoom-blurred views: after the sharp rows (those of the first model), one row per frame
+    // and amplitude, each of its frame and zone; through a file and back.
+    cfg.database_smoothing_mm = 0.0;
+    cfg.index_zoom_blur = vec![0.05, 0.1];
+    let zoomed = tmp.path().join("zoomed");
+    train_into(&zoomed, &cfg, &seq, &zones).unwrap();
+    let z = ZoneClassifier::load(&zoomed).unwrap();
+    let (n, dim) = (seq.len(), a.database().dim);
+    assert_eq!(z.database().len(), 3 * n);
+    assert_eq!(z.database().frame_count(), n);
+    assert_eq!(
+        &z.database().descriptors[..n * dim],
+        &a.database().descriptors[..]
+    );
+    for view in 1..3 {
+        for f in 0..n {
+            let r = view * n + f;
+            assert_eq!(z.database().frame_of_row[r], f);
+            assert_eq!(z.database().zone_of_row[r], zones.zone_of_frame[f]);
+            assert_ne!(z.database().row(r), a.database().row(f), "row {r}");
+        }
+    }
+
     cfg.pretrained = None;
     let e = train_into(&tmp.path().join("none"), &cfg, &seq, &zones)
         .unwrap_err()

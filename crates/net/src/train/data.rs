@@ -99,13 +99,26 @@ pub fn describe_cached(
     batch: usize,
     progress: &mut dyn FnMut(usize),
 ) -> Vec<f32> {
+    describe_cached_with(net, device, cache, frames, batch, <[f32]>::to_vec, progress)
+}
+
+/// [`describe_cached`] of the cached images changed by `change` (before standardisation).
+pub(crate) fn describe_cached_with(
+    net: &EmbeddingNet,
+    device: &Device,
+    cache: &ImageCache,
+    frames: &[usize],
+    batch: usize,
+    change: impl Fn(&[f32]) -> Vec<f32> + Sync,
+    progress: &mut dyn FnMut(usize),
+) -> Vec<f32> {
     let size = cache.size;
     let mut out = Vec::new();
     for (k, chunk) in frames.chunks(batch.max(1)).enumerate() {
         let buf: Vec<f32> = chunk
             .par_iter()
             .flat_map_iter(|&f| {
-                let mut v = cache.image(f).to_vec();
+                let mut v = change(cache.image(f));
                 standardize(&mut v);
                 v
             })

@@ -25,6 +25,7 @@ mod validation;
 pub use crate::history::EpochRecord;
 pub use crate::train_config::{
     DEFAULT_DATABASE_SMOOTHING_MM, DEFAULT_WHITENING, Schedule, TrainConfig, ValidationConfig,
+    ZOOM_BLUR_AMPLITUDES,
 };
 pub use checkpoint::TrainTarget;
 pub(crate) use checkpoint::{checkpoint_dir, discard as discard_checkpoint};
@@ -120,7 +121,15 @@ pub fn train(
         let (rows, whitening) = output::database_rows(cfg, &net, &cache, seq, staging, progress)?;
         let describe_s = t_desc.elapsed().as_secs_f64();
         let dim = cfg.backbone.descriptor_dim();
-        let db = DescriptorDatabase::new(dim, zones.len(), rows, zones.zone_of_frame.clone())?;
+        // The sharp rows, then each zoom-blurred view of every frame: row i is frame i mod n.
+        let views = 1 + cfg.index_zoom_blur.len();
+        let db = DescriptorDatabase::from_rows(
+            dim,
+            zones.len(),
+            rows,
+            zones.zone_of_frame.repeat(views),
+            (0..views).flat_map(|_| 0..seq.len()).collect(),
+        )?;
         progress(&TrainProgress::outside_training(Phase::Saving, 0, 1));
         let source = ModelSource {
             cfg,

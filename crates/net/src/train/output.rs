@@ -2,7 +2,7 @@
 //! and smoothed along the pass when configured) as its database, its files written by
 //! [`crate::model`] and its loss curve drawn by [`crate::plot`].
 
-use super::data::{ImageCache, describe_cached};
+use super::data::{ImageCache, describe_cached_with};
 use super::progress::{Phase, TrainProgress};
 use crate::NetError;
 use crate::backbone::EmbeddingNet;
@@ -14,6 +14,7 @@ use crate::temporal::TemporalConfig;
 use crate::train_config::TrainConfig;
 use crate::whiten::{WHITENING_FILE, Whitening};
 use crate::zones::{ZoneTable, cumulative_path_mm};
+use crate::zoom_blur::zoom_blur;
 use endoloc_data::Sequence;
 use endoloc_geometry::Camera;
 use std::path::Path;
@@ -21,7 +22,10 @@ use std::path::Path;
 /// Database rows of the training frames of `seq` (the first `seq.len()` images of `cache`)
 /// through `net` (validation mode): whitened with power `cfg.whitening` (the whitening
 /// written to `staging/whitening.bin`) and smoothed along the pass over
-/// `cfg.database_smoothing_mm`. Returns the rows and the whitening power, if any.
+/// `cfg.database_smoothing_mm`; then, for each amplitude of `cfg.index_zoom_blur`, the rows of
+/// the frames zoom-blurred by it ([`crate::zoom_blur`]), whitened with the same whitening and
+/// smoothed alike. Returns the rows (`(1 + amplitudes) × frames`, the sharp ones first) and
+/// the whitening power, if any.
 ///
 /// # Errors
 /// [`NetError::Device`] for a bad device name; whitening errors; [`NetError::Io`].
@@ -34,33 +38,73 @@ pub(crate) fn database_rows(
     progress: &mut dyn FnMut(&TrainProgress),
 ) -> Result<(Vec<f32>, Option<f32>), NetError> {
     let base = crate::device::from_name(&cfg.device)?;
-    let total = seq.len();
-    let frames: Vec<usize> = (0..total).collect();
-    let descriptors = describe_cached(
-        net,
-        &base,
-        cache,
-        &frames,
-        cfg.inference_batch,
-        &mut |done| {
-            progress(&TrainProgress::outside_training(
-                Phase::Describing,
-                done,
-                total,
-            ))
-        },
+    let n = seq.len();
+    let frames: Vec<usize> = (0..n).collect();
+    let total = n * (1 + cfg.index_zoom_blur.len());
+    let size = cache.size;
+    // The principal point at the network's input size (the image centre without a camera).
+    let centre = cache.view.as_ref().map_or(
+        (
+            (f64::from(size.width) - 1.0) / 2.0,
+            (f64::from(size.height) - 1.0) / 2.0,
+        ),
+        |v| (v.cx, v.cy),
     );
+    let mut describe = |amplitude: f64, view: usize| {
+        describe_cached_with(
+            net,
+            &base,
+            cache,
+            &frames,
+            cfg.inference_batch,
+            |img| {
+                zoom_blur(
+                    img,
+                    size.width as usize,
+                    size.height as usize,
+                    centre,
+                    amplitude,
+                )
+            },
+            &mut |done| {
+                progress(&TrainProgress::outside_training(
+                    Phase::Describing,
+                    view * n + done,
+                    total,
+                ))
+            },
+        )
+    };
+    let sharp = describe(0.0, 0);
+    let blurred: Vec<Vec<f32>> = cfg
+        .index_zoom_blur
+        .iter()
+        .enumerate()
+        .map(|(k, &a)| describe(a, k + 1))
+        .collect();
     let dim = cfg.backbone.descriptor_dim();
-    let (descriptors, whitening) = if cfg.whitening > 0.0 {
-        let w = Whitening::fit(&descriptors, dim, cfg.whitening)?;
+    let whitening = if cfg.whitening > 0.0 {
+        let w = Whitening::fit(&sharp, dim, cfg.whitening)?;
         w.save(&staging.join(WHITENING_FILE))?;
-        (w.apply_rows(&descriptors), Some(cfg.whitening))
+        Some(w)
     } else {
-        (descriptors, None)
+        None
     };
     let path_mm = cumulative_path_mm(&seq.poses.iter().map(|p| p.pose).collect::<Vec<_>>());
-    let descriptors = smooth_along_pass(&descriptors, dim, &path_mm, cfg.database_smoothing_mm);
-    Ok((descriptors, whitening))
+    let mut rows = Vec::with_capacity(total * dim);
+    for view in std::iter::once(&sharp).chain(&blurred) {
+        let view = match &whitening {
+            Some(w) => w.apply_rows(view),
+            None => view.clone(),
+        };
+        rows.extend(smooth_along_pass(
+            &view,
+            dim,
+            &path_mm,
+            cfg.database_smoothing_mm,
+        ));
+    }
+    Ok((rows, whitening.map(|_| cfg.whitening)))
 }
 
 /// What a model folder holds besides its network and database.
