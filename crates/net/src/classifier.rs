@@ -307,7 +307,9 @@ impl ZoneClassifier {
             return Err(differs("the training poses"));
         }
         if other.database.frame_of_row != self.database.frame_of_row {
-            return Err(differs("the training frames in the descriptor databases"));
+            return Err(differs(
+                "the rows of the descriptor databases (their training frames, or zoom-blurred views of them in one only)",
+            ));
         }
         let (a, b) = (&self.config.camera, &other.config.camera);
         if (a.width, a.height) != (b.width, b.height) {

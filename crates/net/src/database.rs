@@ -1,5 +1,5 @@
-//! The descriptor database: one descriptor per training frame, with its zone, and the zone
-//! look-up rule.
+//! The descriptor database: the descriptors of the training frames (one per frame, or more
+//! with zoom-blurred views), each with its zone and frame, and the zone look-up rule.
 //!
 //! **Rule.** The distance from a test descriptor `q` to zone `z` is the Euclidean distance to
 //! the nearest descriptor of that zone ([`ScoreRule::Nearest`], the default) or the mean of
@@ -10,7 +10,8 @@
 //!
 //! A training frame may have several rows (its zoom-blurred views,
 //! [`TrainConfig::index_zoom_blur`](crate::TrainConfig::index_zoom_blur)): a zone's score and
-//! a frame's distance are those of its nearest row.
+//! a frame's distance are those of its nearest row (with [`ScoreRule::MeanOfNearest`], the
+//! mean over the zone's nearest rows, views included).
 //!
 //! File format (`database.bin`, little-endian): the 8 bytes `EDLCDB01`, `u32` row count `n`,
 //! `u32` descriptor length `dim`, `n × u32` zone indices, `n × dim × f32` descriptors; row `i`

@@ -11,8 +11,8 @@
 //! optional crate feature (`cuda`, `wgpu`) chosen at run time ([`device`]).
 //!
 //! A trained model is one folder ([`model`]): `model.toml` (its config), `weights.safetensors`,
-//! `zones.csv`, `database.bin` (descriptors of the training frames and of their zoom-blurred views,
-//! [`zoom_blur`]), `whitening.bin` (when the
+//! `zones.csv`, `database.bin` (descriptors of the training frames, and with
+//! `--index-zoom-blur` of their zoom-blurred views, [`zoom_blur`]), `whitening.bin` (when the
 //! descriptors are whitened, [`whiten`]) and `train_poses.txt`.
 //!
 //! Conventions (`docs/CONVENTIONS.md`): zone indices are 0-based along the training trajectory; poses
