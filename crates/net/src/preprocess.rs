@@ -123,6 +123,20 @@ pub fn standardize(px: &mut [f32]) {
     }
 }
 
+/// `px` (`w × h`, row-major) sampled bilinearly at `(x, y)` (pixels, origin at the top-left
+/// pixel's centre); coordinates outside the image are clamped to its border, so the border
+/// pixels are replicated. `w` and `h` must be at least 1.
+pub fn sample_bilinear(px: &[f32], w: usize, h: usize, x: f32, y: f32) -> f32 {
+    let x = x.clamp(0.0, (w - 1) as f32);
+    let y = y.clamp(0.0, (h - 1) as f32);
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+    let top = px[y0 * w + x0] * (1.0 - fx) + px[y0 * w + x1] * fx;
+    let bottom = px[y1 * w + x0] * (1.0 - fx) + px[y1 * w + x1] * fx;
+    top * (1.0 - fy) + bottom * fy
+}
+
 /// Resize + standardise: the network input of one grey image.
 pub fn network_input(img: &image::GrayImage, size: InputSize) -> Vec<f32> {
     let mut v = resize_area(

@@ -9,6 +9,7 @@
 //! `ΔR = R_z(θ)`: the sample is at `c + R(θ)(u' − c)` and needs no focal length; tilts (about
 //! x and y) need the intrinsics ([`ViewIntrinsics`]).
 
+use crate::preprocess::sample_bilinear;
 use endoloc_geometry::Camera;
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 
@@ -73,14 +74,7 @@ pub fn rotate_view(
             } else {
                 (x as f64, y as f64)
             };
-            let sx = sx.clamp(0.0, (w - 1) as f64) as f32;
-            let sy = sy.clamp(0.0, (h - 1) as f64) as f32;
-            let (x0, y0) = (sx.floor() as usize, sy.floor() as usize);
-            let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-            let (fx, fy) = (sx - x0 as f32, sy - y0 as f32);
-            let top = px[y0 * w + x0] * (1.0 - fx) + px[y0 * w + x1] * fx;
-            let bot = px[y1 * w + x0] * (1.0 - fx) + px[y1 * w + x1] * fx;
-            out[y * w + x] = top * (1.0 - fy) + bot * fy;
+            out[y * w + x] = sample_bilinear(px, w, h, sx as f32, sy as f32);
         }
     }
     out

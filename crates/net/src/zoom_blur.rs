@@ -11,6 +11,8 @@
 //! front of a wall 20 mm away. The lumen's far end (deeper) is blurred less in reality than
 //! here; the database only needs views that resemble a blurred frame, not a rendering.
 
+use crate::preprocess::sample_bilinear;
+
 /// Scalings averaged per blurred image.
 pub const ZOOM_BLUR_SAMPLES: usize = 9;
 
@@ -33,21 +35,14 @@ pub fn zoom_blur(
         .map(|j| 1.0 / (1.0 - amplitude + 2.0 * amplitude * j as f64 / (n - 1) as f64))
         .collect();
     let (cx, cy) = centre;
-    let (wmax, hmax) = ((width - 1) as f64, (height - 1) as f64);
-    let at = |x: usize, y: usize| pixels[y * width + x];
     let mut out = Vec::with_capacity(width * height);
     for y in 0..height {
         for x in 0..width {
             let mut sum = 0.0f64;
             for &k in &inverse {
-                let sx = (cx + (x as f64 - cx) * k).clamp(0.0, wmax);
-                let sy = (cy + (y as f64 - cy) * k).clamp(0.0, hmax);
-                let (x0, y0) = (sx.floor() as usize, sy.floor() as usize);
-                let (x1, y1) = ((x0 + 1).min(width - 1), (y0 + 1).min(height - 1));
-                let (fx, fy) = ((sx - x0 as f64) as f32, (sy - y0 as f64) as f32);
-                let top = at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx;
-                let bottom = at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx;
-                sum += f64::from(top * (1.0 - fy) + bottom * fy);
+                let sx = cx + (x as f64 - cx) * k;
+                let sy = cy + (y as f64 - cy) * k;
+                sum += f64::from(sample_bilinear(pixels, width, height, sx as f32, sy as f32));
             }
             out.push((sum / n as f64) as f32);
         }

@@ -93,12 +93,9 @@ pub(crate) fn database_rows(
     let path_mm = cumulative_path_mm(&seq.poses.iter().map(|p| p.pose).collect::<Vec<_>>());
     let mut rows = Vec::with_capacity(total * dim);
     for view in std::iter::once(&sharp).chain(&blurred) {
-        let view = match &whitening {
-            Some(w) => w.apply_rows(view),
-            None => view.clone(),
-        };
+        let whitened = whitening.as_ref().map(|w| w.apply_rows(view));
         rows.extend(smooth_along_pass(
-            &view,
+            whitened.as_deref().unwrap_or(view),
             dim,
             &path_mm,
             cfg.database_smoothing_mm,
