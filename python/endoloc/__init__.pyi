@@ -172,6 +172,7 @@ def train(
     whitening: float | None = ...,
     database_smoothing: float | None = ...,
     index_zoom_blur: str | None = ...,
+    index_view_penalty: float | None = ...,
     schedule: str = ...,
     config: StrPath | None = ...,
     epochs: int | None = ...,
@@ -218,6 +219,8 @@ def train(
       path (0: none).
     - ``index_zoom_blur``: Zoom-blurred views of every training frame in the database:
       amplitudes `A,..` of the magnification 1 ± A, or `none`.
+    - ``index_view_penalty``: Descriptor distance added to a view's at look-up (default
+      0: a view counts as its frame).
     - ``schedule``: Schedule preset: `fast` or `paper`.
     - ``config``: Training settings from a TOML file (fields of `TrainConfig`),
       overridden by the above.

@@ -105,7 +105,8 @@ impl ZoneClassifier {
         config.backbone.validate()?;
         let device = crate::device::from_name(device)?;
         let zones = ZoneTable::load(&dir.join(ZONES_FILE))?;
-        let database = DescriptorDatabase::load(&dir.join(DATABASE_FILE), zones.len())?;
+        let database = DescriptorDatabase::load(&dir.join(DATABASE_FILE), zones.len())?
+            .with_view_penalty(config.train.index_view_penalty as f32);
         let incompatible = |m: String| NetError::Incompatible {
             model: dir.to_path_buf(),
             message: m,
@@ -275,7 +276,8 @@ impl ZoneClassifier {
             rows,
             self.database.zone_of_row.clone(),
             self.database.frame_of_row.clone(),
-        )?;
+        )?
+        .with_view_penalty(self.database.view_penalty);
         for other in others {
             self.nets.extend(other.nets);
         }

@@ -11,7 +11,10 @@
 //! A training frame may have several rows (its zoom-blurred views,
 //! [`TrainConfig::index_zoom_blur`](crate::TrainConfig::index_zoom_blur)): a zone's score and
 //! a frame's distance are those of its nearest row (with [`ScoreRule::MeanOfNearest`], the
-//! mean over the zone's nearest rows, views included).
+//! mean over the zone's nearest rows, views included). A frame's first row is its own
+//! descriptor; a later row of the same frame is a **view**, and its distance counts
+//! [`DescriptorDatabase::view_penalty`] more, so that a view wins only when it is clearly
+//! nearer than the sharp rows.
 //!
 //! File format (`database.bin`, little-endian): the 8 bytes `EDLCDB01`, `u32` row count `n`,
 //! `u32` descriptor length `dim`, `n × u32` zone indices, `n × dim × f32` descriptors; row `i`
@@ -75,6 +78,12 @@ pub struct DescriptorDatabase {
     pub zone_of_row: Vec<usize>,
     /// Training frame of each row.
     pub frame_of_row: Vec<usize>,
+    /// Added to the distance of every view row at look-up (a row whose frame an earlier row
+    /// already holds), descriptor units; 0 (the constructors' value) counts a view as its
+    /// frame's own row. The model's [`TrainConfig::index_view_penalty`](crate::TrainConfig::index_view_penalty).
+    pub view_penalty: f32,
+    /// Whether each row is a view (derived from `frame_of_row`).
+    is_view: Vec<bool>,
 }
 
 impl DescriptorDatabase {
@@ -115,13 +124,39 @@ impl DescriptorDatabase {
                 zone_of_row.len()
             )));
         }
+        let mut seen = std::collections::HashSet::with_capacity(frame_of_row.len());
+        let is_view = frame_of_row.iter().map(|&f| !seen.insert(f)).collect();
         Ok(DescriptorDatabase {
             dim,
             zones,
             descriptors,
             zone_of_row,
             frame_of_row,
+            view_penalty: 0.0,
+            is_view,
         })
+    }
+
+    /// This database with [`DescriptorDatabase::view_penalty`] `penalty` (descriptor units).
+    pub fn with_view_penalty(mut self, penalty: f32) -> Self {
+        self.view_penalty = penalty;
+        self
+    }
+
+    /// Whether some row is a view of a frame that an earlier row holds.
+    pub fn has_views(&self) -> bool {
+        self.is_view.iter().any(|&v| v)
+    }
+
+    /// Distance from `q` to every row, a view's with the penalty (see the module docs).
+    fn row_distances<'a>(&'a self, q: &'a [f32]) -> impl Iterator<Item = f32> + 'a {
+        self.descriptors
+            .chunks_exact(self.dim)
+            .zip(&self.is_view)
+            .map(move |(r, &view)| {
+                let d = squared_distance(r, q).sqrt();
+                if view { d + self.view_penalty } else { d }
+            })
     }
 
     /// Number of rows.
@@ -154,11 +189,7 @@ impl DescriptorDatabase {
         if self.is_empty() {
             return Err(NetError::Config("the descriptor database is empty".into()));
         }
-        let dist: Vec<f32> = self
-            .descriptors
-            .chunks_exact(self.dim)
-            .map(|r| squared_distance(r, q).sqrt())
-            .collect();
+        let dist: Vec<f32> = self.row_distances(q).collect();
         let (best_row, &best) = dist
             .iter()
             .enumerate()
@@ -223,12 +254,7 @@ impl DescriptorDatabase {
             )));
         }
         let mut out = vec![f32::INFINITY; self.frame_count()];
-        for (r, &f) in self
-            .descriptors
-            .chunks_exact(self.dim)
-            .zip(&self.frame_of_row)
-        {
-            let d = squared_distance(r, q).sqrt();
+        for (d, &f) in self.row_distances(q).zip(&self.frame_of_row) {
             if d < out[f] {
                 out[f] = d;
             }
@@ -557,5 +583,42 @@ mod tests {
         // One row per frame in order is still written as before.
         db().save(&p).unwrap();
         assert_eq!(&std::fs::read(&p).unwrap()[..8], b"EDLCDB01");
+    }
+
+    #[test]
+    fn a_view_wins_only_when_nearer_by_its_penalty() {
+        // Frame 0 (zone 0) at (0, 0), frame 1 (zone 1) at (0, 1), and a blurred view of
+        // frame 0 at (0, 0.6), near frame 1. The query (0, 0.75) is 0.15 from the view and
+        // 0.25 from frame 1.
+        let d = DescriptorDatabase::from_rows(
+            2,
+            2,
+            vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.6],
+            vec![0, 1, 0],
+            vec![0, 1, 0],
+        )
+        .unwrap();
+        assert!(d.has_views() && !db().has_views());
+        let q = [0.0, 0.75];
+        let zone = |d: &DescriptorDatabase| d.lookup(&q, ScoreRule::Nearest).unwrap().zone;
+        assert_eq!(zone(&d), 0);
+        assert_eq!(zone(&d.clone().with_view_penalty(0.07)), 0);
+        let penalised = d.with_view_penalty(0.2);
+        assert_eq!(zone(&penalised), 1);
+        let f = penalised.frame_distances(&q).unwrap();
+        assert!(
+            (f[0] - 0.35).abs() < 1e-6 && (f[1] - 0.25).abs() < 1e-6,
+            "{f:?}"
+        );
+        // Without views a penalty changes nothing.
+        let sharp = db();
+        assert_eq!(
+            sharp
+                .clone()
+                .with_view_penalty(1.0)
+                .lookup(&[0.1, 0.2], ScoreRule::Nearest)
+                .unwrap(),
+            sharp.lookup(&[0.1, 0.2], ScoreRule::Nearest).unwrap()
+        );
     }
 }

@@ -770,11 +770,14 @@ fn zero_epochs_index_the_pass_with_the_start_weights_and_need_them() {
     // and amplitude, each of its frame and zone; through a file and back.
     cfg.database_smoothing_mm = 0.0;
     cfg.index_zoom_blur = vec![0.05, 0.1];
+    cfg.index_view_penalty = 0.04;
     let zoomed = tmp.path().join("zoomed");
     train_into(&zoomed, &cfg, &seq, &zones).unwrap();
     let z = ZoneClassifier::load(&zoomed).unwrap();
     let (n, dim) = (seq.len(), a.database().dim);
     assert_eq!(z.database().len(), 3 * n);
+    // The views' look-up penalty comes back with the model.
+    assert_eq!(z.database().view_penalty, 0.04);
     assert_eq!(z.database().frame_count(), n);
     assert_eq!(
         &z.database().descriptors[..n * dim],

@@ -24,8 +24,8 @@ mod validation;
 
 pub use crate::history::EpochRecord;
 pub use crate::train_config::{
-    DEFAULT_DATABASE_SMOOTHING_MM, DEFAULT_WHITENING, Schedule, TrainConfig, ValidationConfig,
-    ZOOM_BLUR_AMPLITUDES,
+    DEFAULT_DATABASE_SMOOTHING_MM, DEFAULT_INDEX_VIEW_PENALTY, DEFAULT_WHITENING, Schedule,
+    TrainConfig, ValidationConfig, ZOOM_BLUR_AMPLITUDES,
 };
 pub use checkpoint::TrainTarget;
 pub(crate) use checkpoint::{checkpoint_dir, discard as discard_checkpoint};
