@@ -8,6 +8,7 @@
 //! gain or offset is removed by the per-image standardisation ([`crate::preprocess`]): what
 //! brightness and contrast change for the network is where pixels saturate, and gamma.
 
+use crate::preprocess::sample_bilinear;
 use crate::view::{ViewIntrinsics, view_turn};
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
@@ -214,14 +215,7 @@ fn warp(
                     (sx, sy) = (p.x / p.z, p.y / p.z);
                 }
             }
-            let sx = sx.clamp(0.0, (w - 1) as f32);
-            let sy = sy.clamp(0.0, (h - 1) as f32);
-            let (x0, y0) = (sx.floor() as usize, sy.floor() as usize);
-            let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-            let (fx, fy) = (sx - x0 as f32, sy - y0 as f32);
-            let top = px[y0 * w + x0] * (1.0 - fx) + px[y0 * w + x1] * fx;
-            let bot = px[y1 * w + x0] * (1.0 - fx) + px[y1 * w + x1] * fx;
-            out[y * w + x] = top * (1.0 - fy) + bot * fy;
+            out[y * w + x] = sample_bilinear(px, w, h, sx, sy);
         }
     }
     out
