@@ -58,7 +58,8 @@ pub struct ZonePrediction {
     pub zone_scores: Vec<f32>,
     /// Training frame with the nearest descriptor.
     pub nearest_frame: usize,
-    /// Distance to that descriptor.
+    /// Distance to that descriptor (a view's with the database's
+    /// [`DescriptorDatabase::view_penalty`]).
     pub distance: f32,
     /// The test descriptor the prediction was made from (for further look-ups such as the
     /// track filter's frame distances, [`DescriptorDatabase::frame_distances`]).
