@@ -25,6 +25,8 @@ def benchmark(
     epochs: int | None = ...,
     seed: int = ...,
     smoothed_level: float | None = ...,
+    index_zoom_blur: str | None = ...,
+    index_view_penalty: float | None = ...,
     methods: Seq[str] = ...,
     colon: str | None = ...,
     print_jobs: bool = ...,
@@ -54,6 +56,11 @@ def benchmark(
     - ``seed``: Seed of every training.
     - ``smoothed_level``: σ of each map's smoothed level, pixels (`endoloc.map`'s
       ``smoothed_level``; default: 1.5 per 320 pixels of image width; 0 = none).
+    - ``index_zoom_blur``: Zoom-blurred views of every training frame in each zone index
+      (`endoloc.train`'s ``index_zoom_blur``; default none); a colon's model made earlier is
+      used only when it has them.
+    - ``index_view_penalty``: With ``index_zoom_blur``: `endoloc.train`'s
+      ``index_view_penalty`` (default 0).
     - ``methods``: Methods (default: endoloc-paper, endoloc, endoloc-confirm, endoloc-live,
       endoloc-live-confirm, classify).
     - ``colon``: Run only this colon (`seed-N`, `dev-seed-N` or `ct-<folder>`).
@@ -78,6 +85,8 @@ def changes(
     pretrained: str = ...,
     seed: int = ...,
     smoothed_level: float | None = ...,
+    index_zoom_blur: str | None = ...,
+    index_view_penalty: float | None = ...,
     keep_data: bool = ...,
     colon: str | None = ...,
     print_jobs: bool = ...,
@@ -107,6 +116,11 @@ def changes(
     - ``seed``: Seed of every training.
     - ``smoothed_level``: σ of each map's smoothed level, pixels (`endoloc.map`'s
       ``smoothed_level``; default: 1.5 per 320 pixels of image width; 0 = none).
+    - ``index_zoom_blur``: Zoom-blurred views of every training frame in each zone index
+      (`endoloc.train`'s ``index_zoom_blur``; default none); a colon's model made earlier is
+      used only when it has them.
+    - ``index_view_penalty``: With ``index_zoom_blur``: `endoloc.train`'s
+      ``index_view_penalty`` (default 0).
     - ``keep_data``: Keep each condition's dataset (deleted once its figures are written).
     - ``colon``: Run only this colon (`seed-N` or `ct-<folder>`).
     - ``print_jobs``: Print one command per colon and the merge command, and stop.

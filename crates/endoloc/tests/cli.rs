@@ -969,6 +969,20 @@ fn the_benchmark_runs_colon_by_colon_and_merges() {
         err.contains("not a colon of this benchmark") && err.contains("seed-1, seed-2, dev-seed-3"),
         "{err}"
     );
+    // A colon's model made earlier is used as it is: asked for views it does not have, the
+    // benchmark stops and says how to train it again.
+    let err = fails(
+        &with(&["--colon", "seed-1", "--index-zoom-blur", "0.05"])
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    assert!(
+        err.contains("has zoom-blurred views []")
+            && err.contains("[0.05]")
+            && err.contains("--force"),
+        "{err}"
+    );
 }
 
 /// `experiment zones` as independent jobs: one command per (count, run) cell from

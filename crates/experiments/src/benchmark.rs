@@ -78,6 +78,14 @@ pub struct BenchmarkJob {
     /// per 320 pixels of image width; 0: none).
     #[cfg_attr(feature = "cli", arg(long = "smoothed-level", value_name = "SIGMA_PX"))]
     pub smoothed_level_px: Option<f64>,
+    /// Zoom-blurred views of every training frame in each zone index (the train job's
+    /// `index_zoom_blur`, e.g. 0.03,0.06,0.12; default: none). A colon's model made earlier is
+    /// used only when it has them.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "A,..|none"))]
+    pub index_zoom_blur: Option<String>,
+    /// With `index_zoom_blur`: the train job's `index_view_penalty` (default 0).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "D"))]
+    pub index_view_penalty: Option<f64>,
     /// Methods (default: endoloc-paper, endoloc, endoloc-confirm, endoloc-live,
     /// endoloc-live-confirm, classify; see the compare experiment).
     #[cfg_attr(feature = "cli", arg(long, value_delimiter = ','))]
@@ -119,6 +127,8 @@ impl Default for BenchmarkJob {
             epochs: None,
             seed: 0,
             smoothed_level_px: None,
+            index_zoom_blur: None,
+            index_view_penalty: None,
             methods: Vec::new(),
             colon: None,
             print_jobs: false,
@@ -296,6 +306,14 @@ const DEFAULT_METHODS: [Method; 6] = [
 ];
 
 impl BenchmarkJob {
+    /// The zone indexes' views this experiment asks for.
+    fn index_views(&self) -> common::IndexViews<'_> {
+        common::IndexViews {
+            zoom_blur: self.index_zoom_blur.as_deref(),
+            penalty: self.index_view_penalty,
+        }
+    }
+
     /// The start weights of the zone network; `None` (`pretrained` empty or `none`): the
     /// paper's training from scratch.
     fn pretrained_weights(&self) -> Option<PathBuf> {
@@ -372,6 +390,7 @@ impl BenchmarkJob {
         if let Some(s) = self.smoothed_level_px {
             c.push_str(&format!(" --smoothed-level {s}"));
         }
+        c.push_str(&self.index_views().options());
         if let Some(e) = self.epochs {
             c.push_str(&format!(" --epochs {e}"));
         }
@@ -403,6 +422,7 @@ impl BenchmarkJob {
             );
         }
         endoloc_jobs::map::check_smoothed_level(self.smoothed_level_px)?;
+        self.index_views().parsed()?;
         if self.print_jobs {
             return Ok(BenchmarkReport {
                 colons: Vec::new(),
@@ -422,6 +442,9 @@ impl BenchmarkJob {
         )?;
         for (k, c) in selected.iter().enumerate() {
             if row_path(&self.out, &c.name).is_file() {
+                // Its figures come from its model: that must have the views asked for.
+                let model = self.out.join("colons").join(&c.name).join("model");
+                self.index_views().check_model(&model)?;
                 note!(progress, "reusing   {} (done)", c.name);
                 continue;
             }
@@ -495,9 +518,11 @@ impl BenchmarkJob {
             note!(progress, "{report}");
         }
         let model = dir.join("model");
-        if !model.join("model.toml").is_file() {
+        if model.join("model.toml").is_file() {
+            self.index_views().check_model(&model)?;
+        } else {
             let pretrained = self.pretrained_weights();
-            let train = TrainJob {
+            let train = self.index_views().apply(TrainJob {
                 data: data.clone(),
                 zones: self.zones,
                 out: model.clone(),
@@ -506,7 +531,7 @@ impl BenchmarkJob {
                 pretrained,
                 seed: self.seed,
                 ..Default::default()
-            };
+            });
             note!(progress, "zone network for {}", c.name);
             let report = train.run(progress)?;
             note!(progress, "{report}");

@@ -248,6 +248,14 @@ pub struct ChangesJob {
     /// per 320 pixels of image width; 0: none).
     #[cfg_attr(feature = "cli", arg(long = "smoothed-level", value_name = "SIGMA_PX"))]
     pub smoothed_level_px: Option<f64>,
+    /// Zoom-blurred views of every training frame in each zone index (the train job's
+    /// `index_zoom_blur`, e.g. 0.03,0.06,0.12; default: none). A colon's model made earlier is
+    /// used only when it has them.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "A,..|none"))]
+    pub index_zoom_blur: Option<String>,
+    /// With `index_zoom_blur`: the train job's `index_view_penalty` (default 0).
+    #[cfg_attr(feature = "cli", arg(long, value_name = "D"))]
+    pub index_view_penalty: Option<f64>,
     /// Keep each condition's dataset (by default it is deleted once its figures are written:
     /// a condition of the `small` preset takes about 50 MB).
     #[cfg_attr(feature = "cli", arg(long))]
@@ -283,6 +291,8 @@ impl Default for ChangesJob {
             pretrained: "builtin-joint".into(),
             seed: 0,
             smoothed_level_px: None,
+            index_zoom_blur: None,
+            index_view_penalty: None,
             keep_data: false,
             colon: None,
             print_jobs: false,
@@ -415,6 +425,14 @@ const HOLDS_WRONG_PCT: f64 = 1.0;
 const HOLDS_MEDIAN_MM: f64 = 1.0;
 
 impl ChangesJob {
+    /// The zone indexes' views this experiment asks for.
+    fn index_views(&self) -> common::IndexViews<'_> {
+        common::IndexViews {
+            zoom_blur: self.index_zoom_blur.as_deref(),
+            penalty: self.index_view_penalty,
+        }
+    }
+
     fn factors(&self) -> Vec<Factor> {
         if self.factors.is_empty() {
             Factor::ALL.to_vec()
@@ -487,6 +505,7 @@ impl ChangesJob {
         if let Some(s) = self.smoothed_level_px {
             c.push_str(&format!(" --smoothed-level {s}"));
         }
+        c.push_str(&self.index_views().options());
         if self.keep_data {
             c.push_str(" --keep-data");
         }
@@ -507,6 +526,7 @@ impl ChangesJob {
             bail!("no colons: give `seeds` and/or `gca`");
         }
         endoloc_jobs::map::check_smoothed_level(self.smoothed_level_px)?;
+        self.index_views().parsed()?;
         if self.print_jobs {
             return Ok(ChangesReport {
                 summary: Vec::new(),
@@ -589,6 +609,8 @@ impl ChangesJob {
         for (k, cond) in self.conditions().iter().enumerate() {
             let row_file = row_path(&self.out, &c.name, &cond.name());
             if row_file.is_file() {
+                // Its figures come from the colon's model: that must have the views asked for.
+                self.index_views().check_model(&model)?;
                 note!(progress, "reusing   {} {} (done)", c.name, cond.name());
                 continue;
             }
@@ -621,23 +643,27 @@ impl ChangesJob {
                 .run(progress)?;
                 note!(progress, "{report}");
             }
-            if !model.join("model.toml").is_file() {
+            if model.join("model.toml").is_file() {
+                self.index_views().check_model(&model)?;
+            } else {
                 let pretrained = {
                     let p = self.pretrained.trim();
                     (!p.is_empty() && p != "none").then(|| PathBuf::from(p))
                 };
                 note!(progress, "zone network for {}", c.name);
-                let report = TrainJob {
-                    data: data.clone(),
-                    zones: self.zones,
-                    out: model.clone(),
-                    force: model.exists(),
-                    epochs: pretrained.as_ref().map(|_| 0),
-                    pretrained,
-                    seed: self.seed,
-                    ..Default::default()
-                }
-                .run(progress)?;
+                let report = self
+                    .index_views()
+                    .apply(TrainJob {
+                        data: data.clone(),
+                        zones: self.zones,
+                        out: model.clone(),
+                        force: model.exists(),
+                        epochs: pretrained.as_ref().map(|_| 0),
+                        pretrained,
+                        seed: self.seed,
+                        ..Default::default()
+                    })
+                    .run(progress)?;
                 note!(progress, "{report}");
             }
             let report = CompareJob {
@@ -1110,6 +1136,26 @@ mod tests {
             report.jobs[0]
         );
         assert!(report.jobs[2].ends_with("--merge"));
+        // The zone indexes' views go with every command; a bad list stops before anything.
+        let views = ChangesJob {
+            index_zoom_blur: Some("0.03,0.06".into()),
+            index_view_penalty: Some(0.07),
+            ..job.clone()
+        };
+        let report = views.run(&endoloc_jobs::Silent).unwrap();
+        assert!(
+            report.jobs[0].contains("--index-zoom-blur 0.03,0.06 --index-view-penalty 0.07"),
+            "{}",
+            report.jobs[0]
+        );
+        let e = ChangesJob {
+            index_zoom_blur: Some("0.7".into()),
+            ..views
+        }
+        .run(&endoloc_jobs::Silent)
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("index_zoom_blur") && e.contains("0.7"), "{e}");
         let names: Vec<String> = job.conditions().iter().map(Condition::name).collect();
         assert_eq!(
             names,

@@ -109,6 +109,83 @@ pub(super) struct TrainSpec {
     pub pretrained: Option<PathBuf>,
 }
 
+/// The zoom-blurred views an experiment asks of every zone index it trains (the train job's
+/// `index_zoom_blur` and `index_view_penalty`; `None`: the train job's defaults).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct IndexViews<'a> {
+    /// Amplitudes, `A,..` or `none`.
+    pub zoom_blur: Option<&'a str>,
+    /// Descriptor distance added to a view's at look-up.
+    pub penalty: Option<f64>,
+}
+
+impl IndexViews<'_> {
+    /// The amplitudes and penalty as the train job reads them.
+    ///
+    /// # Errors
+    /// A bad list or penalty, named as the train job names it.
+    pub fn parsed(&self) -> Result<(Vec<f64>, f64)> {
+        let cfg = TrainJob {
+            index_zoom_blur: self.zoom_blur.map(str::to_string),
+            index_view_penalty: self.penalty,
+            ..TrainJob::default()
+        }
+        .train_config()?;
+        Ok((cfg.index_zoom_blur, cfg.index_view_penalty))
+    }
+
+    /// Passes them on to a train job.
+    pub fn apply(&self, job: TrainJob) -> TrainJob {
+        TrainJob {
+            index_zoom_blur: self.zoom_blur.map(str::to_string),
+            index_view_penalty: self.penalty,
+            ..job
+        }
+    }
+
+    /// Their options on a command line (`print_jobs`), each with a leading space.
+    pub fn options(&self) -> String {
+        let mut c = String::new();
+        if let Some(a) = self.zoom_blur {
+            c.push_str(&format!(" --index-zoom-blur {}", shell_quote(a)));
+        }
+        if let Some(d) = self.penalty {
+            c.push_str(&format!(" --index-view-penalty {d}"));
+        }
+        c
+    }
+
+    /// Checks a model made earlier (`dir`, with its `model.toml`): it is used as it is, so
+    /// when views are asked for it must have them (what is not asked for is not checked).
+    ///
+    /// # Errors
+    /// A model whose index has other views or another penalty, with the command that trains
+    /// it again; an unreadable `model.toml`.
+    pub fn check_model(&self, dir: &Path) -> Result<()> {
+        if self.zoom_blur.is_none() && self.penalty.is_none() {
+            return Ok(());
+        }
+        let (views, penalty) = self.parsed()?;
+        let have = endoloc_net::ModelConfig::load(dir)
+            .with_context(|| format!("reading the model of {}", dir.display()))?
+            .train;
+        if (self.zoom_blur.is_some() && have.index_zoom_blur != views)
+            || (self.penalty.is_some() && have.index_view_penalty != penalty)
+        {
+            bail!(
+                "the zone index of {} has zoom-blurred views {:?} (penalty {}), but {views:?} \
+                 (penalty {penalty}) were asked for: train it again (`endoloc train … --out {} \
+                 --force` with the views), or use another output folder",
+                dir.display(),
+                have.index_zoom_blur,
+                have.index_view_penalty,
+                dir.display()
+            );
+        }
+        Ok(())
+    }
+}
+
 /// Trains a model into `dir` unless a finished one is already there (`model.toml` present).
 /// Returns whether it trained.
 pub(super) fn ensure_model(
