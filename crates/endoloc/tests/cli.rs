@@ -970,7 +970,8 @@ fn the_benchmark_runs_colon_by_colon_and_merges() {
         "{err}"
     );
     // A colon's model made earlier is used as it is: asked for views it does not have, the
-    // benchmark stops and says how to train it again.
+    // benchmark stops before it writes anything and says how to train it again.
+    let settings = std::fs::read(bench.join("benchmark.toml")).unwrap();
     let err = fails(
         &with(&["--colon", "seed-1", "--index-zoom-blur", "0.05"])
             .iter()
@@ -982,6 +983,11 @@ fn the_benchmark_runs_colon_by_colon_and_merges() {
             && err.contains("[0.05]")
             && err.contains("--force"),
         "{err}"
+    );
+    assert_eq!(
+        std::fs::read(bench.join("benchmark.toml")).unwrap(),
+        settings,
+        "a refused run leaves the recorded settings as they were"
     );
 }
 

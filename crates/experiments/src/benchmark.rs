@@ -434,6 +434,12 @@ impl BenchmarkJob {
             });
         }
         let selected = select_colons(&colons, self.colon.as_deref(), self.merge, "benchmark")?;
+        // A colon's model made earlier (and its figures) is used as it is.
+        self.index_views().check_models(
+            selected
+                .iter()
+                .map(|c| self.out.join("colons").join(&c.name).join("model")),
+        )?;
         common::prepare_out(&self.out, "benchmark.toml", self.force)?;
         common::create_out(&self.out, "benchmark.toml")?;
         common::write_text(
@@ -442,9 +448,6 @@ impl BenchmarkJob {
         )?;
         for (k, c) in selected.iter().enumerate() {
             if row_path(&self.out, &c.name).is_file() {
-                // Its figures come from its model: that must have the views asked for.
-                let model = self.out.join("colons").join(&c.name).join("model");
-                self.index_views().check_model(&model)?;
                 note!(progress, "reusing   {} (done)", c.name);
                 continue;
             }
@@ -518,9 +521,7 @@ impl BenchmarkJob {
             note!(progress, "{report}");
         }
         let model = dir.join("model");
-        if model.join("model.toml").is_file() {
-            self.index_views().check_model(&model)?;
-        } else {
+        if !model.join("model.toml").is_file() {
             let pretrained = self.pretrained_weights();
             let train = self.index_views().apply(TrainJob {
                 data: data.clone(),

@@ -537,6 +537,12 @@ impl ChangesJob {
             });
         }
         let selected = select_colons(&colons, self.colon.as_deref(), self.merge, "study")?;
+        // A colon's model made earlier (and its conditions' figures) is used as it is.
+        self.index_views().check_models(
+            selected
+                .iter()
+                .map(|c| self.out.join("colons").join(&c.name).join("model")),
+        )?;
         common::prepare_out(&self.out, "changes.toml", self.force)?;
         common::create_out(&self.out, "changes.toml")?;
         let saved = ChangesJob {
@@ -609,8 +615,6 @@ impl ChangesJob {
         for (k, cond) in self.conditions().iter().enumerate() {
             let row_file = row_path(&self.out, &c.name, &cond.name());
             if row_file.is_file() {
-                // Its figures come from the colon's model: that must have the views asked for.
-                self.index_views().check_model(&model)?;
                 note!(progress, "reusing   {} {} (done)", c.name, cond.name());
                 continue;
             }
@@ -643,9 +647,7 @@ impl ChangesJob {
                 .run(progress)?;
                 note!(progress, "{report}");
             }
-            if model.join("model.toml").is_file() {
-                self.index_views().check_model(&model)?;
-            } else {
+            if !model.join("model.toml").is_file() {
                 let pretrained = {
                     let p = self.pretrained.trim();
                     (!p.is_empty() && p != "none").then(|| PathBuf::from(p))

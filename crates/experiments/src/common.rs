@@ -184,6 +184,20 @@ impl IndexViews<'_> {
         }
         Ok(())
     }
+
+    /// [`IndexViews::check_model`] for each of `dirs` that holds a model already (the others
+    /// are trained with the views); called before an experiment writes anything.
+    ///
+    /// # Errors
+    /// As [`IndexViews::check_model`], for the first model refused.
+    pub fn check_models(&self, dirs: impl IntoIterator<Item = PathBuf>) -> Result<()> {
+        for dir in dirs {
+            if dir.join("model.toml").is_file() {
+                self.check_model(&dir)?;
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Trains a model into `dir` unless a finished one is already there (`model.toml` present).
