@@ -111,7 +111,7 @@ pub(super) struct TrainSpec {
 
 /// The zoom-blurred views an experiment asks of every zone index it trains (the train job's
 /// `index_zoom_blur` and `index_view_penalty`; `None`: the train job's defaults).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy)]
 pub(super) struct IndexViews<'a> {
     /// Amplitudes, `A,..` or `none`.
     pub zoom_blur: Option<&'a str>,
@@ -155,45 +155,38 @@ impl IndexViews<'_> {
         c
     }
 
-    /// Checks a model made earlier (`dir`, with its `model.toml`): it is used as it is, so
-    /// when views are asked for it must have them (what is not asked for is not checked).
+    /// Checks each of `dirs` that holds a model already (a colon's model made earlier, used
+    /// as it is): when views are asked for, it must have them (what is not asked for is not
+    /// checked). Called before an experiment writes anything; the others are trained with
+    /// the views.
     ///
     /// # Errors
-    /// A model whose index has other views or another penalty, with the command that trains
-    /// it again; an unreadable `model.toml`.
-    pub fn check_model(&self, dir: &Path) -> Result<()> {
+    /// The first model whose index has other views or another penalty, with the command that
+    /// trains it again; an unreadable `model.toml`.
+    pub fn check_models(&self, dirs: impl IntoIterator<Item = PathBuf>) -> Result<()> {
         if self.zoom_blur.is_none() && self.penalty.is_none() {
             return Ok(());
         }
         let (views, penalty) = self.parsed()?;
-        let have = endoloc_net::ModelConfig::load(dir)
-            .with_context(|| format!("reading the model of {}", dir.display()))?
-            .train;
-        if (self.zoom_blur.is_some() && have.index_zoom_blur != views)
-            || (self.penalty.is_some() && have.index_view_penalty != penalty)
-        {
-            bail!(
-                "the zone index of {} has zoom-blurred views {:?} (penalty {}), but {views:?} \
-                 (penalty {penalty}) were asked for: train it again (`endoloc train … --out {} \
-                 --force` with the views), or use another output folder",
-                dir.display(),
-                have.index_zoom_blur,
-                have.index_view_penalty,
-                dir.display()
-            );
-        }
-        Ok(())
-    }
-
-    /// [`IndexViews::check_model`] for each of `dirs` that holds a model already (the others
-    /// are trained with the views); called before an experiment writes anything.
-    ///
-    /// # Errors
-    /// As [`IndexViews::check_model`], for the first model refused.
-    pub fn check_models(&self, dirs: impl IntoIterator<Item = PathBuf>) -> Result<()> {
         for dir in dirs {
-            if dir.join("model.toml").is_file() {
-                self.check_model(&dir)?;
+            if !dir.join("model.toml").is_file() {
+                continue;
+            }
+            let have = endoloc_net::ModelConfig::load(&dir)
+                .with_context(|| format!("reading the model of {}", dir.display()))?
+                .train;
+            if (self.zoom_blur.is_some() && have.index_zoom_blur != views)
+                || (self.penalty.is_some() && have.index_view_penalty != penalty)
+            {
+                bail!(
+                    "the zone index of {} has zoom-blurred views {:?} (penalty {}), but \
+                     {views:?} (penalty {penalty}) were asked for: train it again (`endoloc \
+                     train … --out {} --force` with the views), or use another output folder",
+                    dir.display(),
+                    have.index_zoom_blur,
+                    have.index_view_penalty,
+                    dir.display()
+                );
             }
         }
         Ok(())
