@@ -573,6 +573,7 @@ def pretrain(
     frames: int | None = ...,
     fps: float | None = ...,
     size: str | None = ...,
+    changes: Literal["none", "mild", "moderate", "severe"] | None = ...,
     force: bool = ...,
     device: str = ...,
     progress: ProgressArg = None,
@@ -599,6 +600,9 @@ def pretrain(
     - ``fps``: Frame rate of the simulated passes, frames per second (`None`: the
       preset's).
     - ``size``: Image size `WIDTHxHEIGHT`, pixels (`None`: the preset's).
+    - ``changes``: Each colon's test pass through its colon changed at random up to this
+      severity (every factor of the change model drawn between none and the severity's
+      value, seeded by the colon's seed); `None`: both passes through the same colon.
     - ``force``: Replace an existing `out/weights.safetensors`.
     - ``device``: Compute device of the trainings: `cpu`, `cuda`, `wgpu` (GPU builds only)
       or `auto`.

@@ -778,9 +778,10 @@ fn pretrain_chains_colons_and_writes_start_weights_that_train_accepts() {
     let toml = std::fs::read_to_string(tmp.path().join("model-builtin/model.toml")).unwrap();
     assert!(toml.contains("pretrained = \"builtin\""), "{toml}");
     // A pretraining continues from given weights with other pairs (recorded in each model;
-    // 0 epochs: the pair rules themselves are the net crate's tests).
+    // 0 epochs: the pair rules themselves are the net crate's tests), its test pass through a
+    // colon changed at random.
     let track = tmp.path().join("pretrain-track");
-    ok(&[
+    let track_args = [
         "pretrain",
         "--out",
         &s(&track),
@@ -802,7 +803,10 @@ fn pretrain_chains_colons_and_writes_start_weights_that_train_accepts() {
         "track",
         "--near-fraction",
         "0.1",
-    ]);
+        "--changes",
+        "mild",
+    ];
+    ok(&track_args);
     let toml = std::fs::read_to_string(track.join("model-101/model.toml")).unwrap();
     for want in [
         "pretrained = \"builtin\"",
@@ -811,6 +815,18 @@ fn pretrain_chains_colons_and_writes_start_weights_that_train_accepts() {
     ] {
         assert!(toml.contains(want), "{want} missing:\n{toml}");
     }
+    let colon = std::fs::read_to_string(track.join("colon-101/dataset.toml")).unwrap();
+    assert!(colon.contains("severity = \"mild\""), "{colon}");
+    assert!(track.join("colon-101/test/poses_changed.txt").is_file());
+    // A colon simulated with another change is not reused for this one.
+    let mut other = track_args.to_vec();
+    *other.last_mut().unwrap() = "moderate";
+    other.push("--force");
+    let err = fails(&other);
+    assert!(
+        err.contains("colon-101") && err.contains("`mild`") && err.contains("`moderate`"),
+        "{err}"
+    );
     let err = fails(&[
         "pretrain",
         "--out",

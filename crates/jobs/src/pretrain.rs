@@ -15,7 +15,7 @@ use crate::error::{Context, JobError, Result};
 use crate::progress::Progress;
 use crate::simulate::{SimulateJob, SimulateReport};
 use crate::train::{TrainBars, TrainJob, TrainReport, pair_rule_from};
-use endoloc_sim::Preset;
+use endoloc_sim::{ChangeConfig, Preset, Severity};
 
 /// Pretrains the zone classifier's network on `colons` simulated colons, each rendered with a
 /// training and a test pass (seeds `seed + 101·i`), and writes start weights for
@@ -78,6 +78,16 @@ pub struct PretrainJob {
     /// Image width and height WIDTHxHEIGHT (default: the preset's).
     #[cfg_attr(feature = "cli", arg(long, value_name = "WxH"))]
     pub size: Option<String>,
+    /// Each colon's test pass through its colon changed at random up to this severity (`mild`,
+    /// `moderate` or `severe`): every factor of the change model (shape, look, scope; see
+    /// `simulate --changes`) drawn between none and the severity's value, seeded by the
+    /// colon's seed, so that the network learns to find a zone in a colon that changed since
+    /// its map pass. Default: both passes through the same colon.
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, value_name = "SEVERITY", value_parser = crate::severity_parser())
+    )]
+    pub changes: Option<Severity>,
     /// Replace an existing OUT/weights.safetensors.
     #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
@@ -106,6 +116,7 @@ impl Default for PretrainJob {
             frames: None,
             fps: None,
             size: None,
+            changes: None,
             force: false,
             device: Device::Cpu,
         }
@@ -144,6 +155,31 @@ impl PretrainJob {
         self.out.join(format!("colon-{}", self.seed_of(i)))
     }
 
+    /// Refuses a colon simulated earlier with another change than the one asked for.
+    fn check_reused(&self, data: &std::path::Path) -> Result<()> {
+        let ds = Dataset::open(data)?;
+        let had = ds
+            .meta
+            .simulation
+            .as_ref()
+            .and_then(|s| {
+                s.get("changes")?
+                    .get("severity")?
+                    .as_str()
+                    .map(str::to_owned)
+            })
+            .unwrap_or_else(|| Severity::None.name().to_owned());
+        let asked = self.changes.unwrap_or_default();
+        if had != asked.name() {
+            bail!(
+                "{} was simulated with changes `{had}`, this pretraining asks for `{asked}`: \
+                 use another `out`, or remove the folder to simulate it again",
+                data.display()
+            );
+        }
+        Ok(())
+    }
+
     /// Simulates, trains and writes the start weights.
     ///
     /// # Errors
@@ -179,6 +215,7 @@ impl PretrainJob {
                 trained: None,
             };
             if data.join("dataset.toml").is_file() {
+                self.check_reused(&data)?;
                 progress.note(&format!("\n== {title}: reusing {}", data.display()));
             } else {
                 progress.note(&format!("\n== {title}: simulate"));
@@ -194,7 +231,11 @@ impl PretrainJob {
                     height: size.map(|s| s.1),
                     ..SimulateJob::default()
                 };
-                colon.simulated = Some(sim.run(progress)?);
+                let mut cfg = sim.sim_config()?;
+                if let Some(up_to) = self.changes {
+                    cfg.changes = ChangeConfig::draw(up_to, cfg.changes.seed);
+                }
+                colon.simulated = Some(sim.run_config(&cfg, progress)?);
             }
             if !self.joint {
                 if model.join("weights.safetensors").is_file() {

@@ -262,7 +262,17 @@ impl SimulateJob {
     /// A configuration error (see [`SimulateJob::sim_config`]), no `out`, an existing `out`
     /// without `force`, or a failed render or write.
     pub fn run(&self, progress: &dyn Progress) -> Result<SimulateReport> {
-        let cfg = self.sim_config()?;
+        self.run_config(&self.sim_config()?, progress)
+    }
+
+    /// Renders the dataset of `cfg`, a configuration of this job's (see
+    /// [`SimulateJob::sim_config`]) that the caller changed further, into `out`.
+    ///
+    /// # Errors
+    /// No `out`, an existing `out` without `force`, settings that do not validate, or a
+    /// failed render or write.
+    pub fn run_config(&self, cfg: &SimConfig, progress: &dyn Progress) -> Result<SimulateReport> {
+        cfg.validate()?;
         if self.out.as_os_str().is_empty() {
             bail!("`out` is required");
         }
@@ -274,7 +284,7 @@ impl SimulateJob {
             }
             endoloc_sim::Progress::FrameDone => progress.inc(1),
         };
-        let summary = endoloc_sim::simulate(&cfg, &self.out, self.force, &on_event)
+        let summary = endoloc_sim::simulate(cfg, &self.out, self.force, &on_event)
             .with_context(|| format!("simulating into {}", self.out.display()));
         progress.finish();
         Ok(SimulateReport {

@@ -300,6 +300,67 @@ impl ChangeConfig {
         }
     }
 
+    /// A change drawn at random up to a severity, for training with the change model as
+    /// augmentation: every factor independently between none and the severity's value
+    /// (uniform), those with two directions (gamma, white balance, light power, texture
+    /// contrast, the test scope's field of view) turned either way — brighter or dimmer,
+    /// warmer or cooler, vessels more or less visible, a wider or a narrower scope. The
+    /// severity's own preset is one point among the draws, never all of them. `seed` seeds the
+    /// draw and becomes the change's seed; `severity` records `up_to`.
+    pub fn draw(up_to: Severity, seed: u64) -> Self {
+        use rand::{Rng, SeedableRng};
+        let full = ChangeConfig::preset(up_to);
+        let none = ChangeConfig::preset(Severity::None);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        // Between none (`a`) and the severity (`b`), linearly.
+        let mut lerp = |a: f64, b: f64| a + rng.random::<f64>() * (b - a);
+        let (s, l, c) = (&full.shape, &full.look, &full.scope);
+        let shape = ShapeChange {
+            shift_mm: lerp(0.0, s.shift_mm),
+            insufflation: lerp(0.0, s.insufflation),
+            deform_mm: lerp(0.0, s.deform_mm),
+            ..none.shape.clone()
+        };
+        let mut look = LookChange {
+            gain: [lerp(1.0, l.gain[0]), lerp(1.0, l.gain[1])],
+            beam_exponent: lerp(1.0, l.beam_exponent),
+            specular: lerp(1.0, l.specular),
+            sheen: lerp(0.0, l.sheen),
+            residue_fraction: lerp(0.0, l.residue_fraction),
+            fluid_fraction: lerp(0.0, l.fluid_fraction),
+            bubble_frames: lerp(0.0, l.bubble_frames),
+            bubble_cover: lerp(0.0, l.bubble_cover),
+            ..none.look.clone()
+        };
+        let mut scope = ScopeChange {
+            motion_blur_samples: lerp(0.0, c.motion_blur_samples as f64).round() as usize,
+            defocus_px: lerp(0.0, c.defocus_px),
+            hfov_change_deg: 0.0,
+        };
+        // Factors with two directions: a signed fraction of the severity's change.
+        let mut signed = || {
+            let u = rng.random::<f64>();
+            if rng.random::<bool>() { u } else { -u }
+        };
+        look.gamma = l.gamma.powf(signed());
+        look.light_power = l.light_power.powf(signed());
+        look.texture_contrast = l.texture_contrast.powf(signed());
+        let warm = signed();
+        look.white_balance = [
+            l.white_balance[0].powf(warm),
+            1.0,
+            l.white_balance[2].powf(warm),
+        ];
+        scope.hfov_change_deg = signed() * c.hfov_change_deg;
+        ChangeConfig {
+            severity: up_to,
+            seed,
+            shape,
+            look,
+            scope,
+        }
+    }
+
     /// Whether nothing changes between the passes (the seed and the informative severity
     /// aside).
     pub fn is_none(&self) -> bool {
@@ -399,5 +460,37 @@ impl ChangeConfig {
             (-60.0..=60.0).contains(&self.scope.hfov_change_deg),
         )?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Draws stay between none and the severity (either way for two-way factors), differ
+    /// from seed to seed, repeat with a seed, and validate.
+    #[test]
+    fn a_drawn_change_is_bounded_by_its_severity_and_seeded() {
+        let full = ChangeConfig::preset(Severity::Moderate);
+        let draws: Vec<_> = (0..64)
+            .map(|seed| ChangeConfig::draw(Severity::Moderate, seed))
+            .collect();
+        assert_eq!(draws[7], ChangeConfig::draw(Severity::Moderate, 7));
+        assert_ne!(draws[7], draws[8]);
+        for d in &draws {
+            d.validate().unwrap();
+            assert!((0.0..=full.shape.shift_mm).contains(&d.shape.shift_mm));
+            assert!((full.look.gain[0]..=1.0).contains(&d.look.gain[0]));
+            let gamma = d.look.gamma.ln().abs();
+            assert!(gamma <= full.look.gamma.ln() + 1e-12, "{}", d.look.gamma);
+            assert!(d.scope.hfov_change_deg.abs() <= full.scope.hfov_change_deg);
+            assert!(d.scope.motion_blur_samples <= full.scope.motion_blur_samples);
+        }
+        // Both directions are drawn: warmer and cooler, wider and narrower.
+        assert!(draws.iter().any(|d| d.look.white_balance[0] > 1.0));
+        assert!(draws.iter().any(|d| d.look.white_balance[0] < 1.0));
+        assert!(draws.iter().any(|d| d.scope.hfov_change_deg < 0.0));
+        assert!(draws.iter().any(|d| d.scope.hfov_change_deg > 0.0));
+        assert!(ChangeConfig::draw(Severity::None, 3).is_none());
     }
 }
