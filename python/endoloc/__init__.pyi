@@ -232,8 +232,8 @@ def train(
     - ``seed``: Seed of every random step.
     - ``device``: Compute device: `cpu`, `cuda`, `wgpu` (GPU builds only) or `auto`.
     - ``val_seq``: Monitor validation accuracy on this sequence folder.
-    - ``pretrained``: Start weights: a file, or `builtin`, `builtin-track`, `builtin-
-      joint`.
+    - ``pretrained``: Start weights: a file, or `builtin`, `builtin-track`,
+      `builtin-joint`, `builtin-changes`.
     """
     ...
 

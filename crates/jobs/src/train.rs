@@ -181,10 +181,15 @@ pub struct TrainJob {
     /// (pretrained on simulated colons, never yours): `builtin`, zone pairs on four colons;
     /// `builtin-track`, those continued with track pairs on eight colons, the start for track
     /// `pairs` with `near_fraction` 0.1; `builtin-joint`, those continued on 32 colons at
-    /// once, best used as they are with 0 `epochs`.
+    /// once, best used as they are with 0 `epochs`; `builtin-changes`, those continued on
+    /// eight colons changed at random between their passes, for a colon that changed since
+    /// its map pass (0 `epochs`).
     #[cfg_attr(
         feature = "cli",
-        arg(long, value_name = "FILE|builtin|builtin-track|builtin-joint")
+        arg(
+            long,
+            value_name = "FILE|builtin|builtin-track|builtin-joint|builtin-changes"
+        )
     )]
     pub pretrained: Option<PathBuf>,
 }

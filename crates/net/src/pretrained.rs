@@ -17,7 +17,9 @@
 //! `builtin-joint` from that with track pairs on sixteen colons at once, then sixteen more
 //! (pretrain with `joint`; 32 colons in all): indexing a pass with it and no training
 //! (train with `pretrained` builtin-joint, `epochs` 0) is the best single model on the
-//! `paper` preset. They fit the default compact backbone only; any other network is refused with the architecture they
+//! `paper` preset; `builtin-changes` from that on eight colons whose test passes went
+//! through colons changed at random (pretrain with `changes`), for colons that change
+//! between the passes. They fit the default compact backbone only; any other network is refused with the architecture they
 //! need.
 
 use crate::NetError;
@@ -81,6 +83,14 @@ pub const BUILTINS: &[BuiltinWeights] = &[
                 (pretrain with `joint`, 32 colons in all); used as they are: \
                 train with `pretrained` builtin-joint, `epochs` 0",
         bytes: include_bytes!("../weights/compact-sim32-joint.safetensors"),
+    },
+    BuiltinWeights {
+        name: "builtin-changes",
+        about: "`builtin-joint`, then track pairs on eight colons at once, each test pass through \
+                its colon changed at random up to `moderate` (pretrain with `joint` and \
+                `changes` moderate); for passes through a colon that changed since its map \
+                pass, used as they are: train with `pretrained` builtin-changes, `epochs` 0",
+        bytes: include_bytes!("../weights/compact-sim8-changes.safetensors"),
     },
 ];
 
@@ -366,7 +376,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            err.contains("builtin, builtin-track, builtin-joint"),
+            err.contains("builtin, builtin-track, builtin-joint, builtin-changes"),
             "{err}"
         );
     }

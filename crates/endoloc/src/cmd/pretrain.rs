@@ -17,8 +17,13 @@ use endoloc_jobs::{PretrainJob, Progress};
 /// each colon kept apart, negatives drawn from the partner's colon, where the look-alikes
 /// are). A joint run holds every colon's images in memory.
 ///
+/// `--changes moderate` renders each colon's test pass through its colon changed at random
+/// (every factor of `simulate --changes` drawn up to that severity): the network learns to
+/// find a zone in a colon that changed since its map pass.
+///
 /// The weights shipped with endoloc (`endoloc train --pretrained builtin`, `builtin-track`,
-/// `builtin-joint`) were made with this command; see `endoloc train --help`.
+/// `builtin-joint`, `builtin-changes`) were made with this command; see `endoloc train
+/// --help`.
 ///
 /// Output: OUT/colon-SEED/ (each dataset), OUT/model-SEED/ (each model; with `--joint` one
 /// OUT/joint/ with its checkpoint, history and loss curve) and OUT/weights.safetensors (the
@@ -32,6 +37,8 @@ use endoloc_jobs::{PretrainJob, Progress};
 ///   endoloc pretrain --out models/pretrain-track --colons 8 --pretrained builtin --pairs track --near-fraction 0.1
 ///
 ///   endoloc pretrain --out models/pj16 --colons 16 --seed 101 --frames 1305 --fps 15 --joint --pairs track --pair-frames 2,5 --near-fraction 0.1 --pretrained builtin-track
+///
+///   endoloc pretrain --out models/pc8 --colons 8 --seed 4949 --frames 1305 --fps 15 --joint --pairs track --pair-frames 2,5 --near-fraction 0.1 --pretrained builtin-joint --changes moderate
 ///
 ///   endoloc train --data data/paper --pretrained models/pretrain/weights.safetensors --out models/paper50
 #[derive(Debug, clap::Args)]

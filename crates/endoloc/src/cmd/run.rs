@@ -22,7 +22,7 @@ use endoloc_jobs::{Progress, RunJob};
 ///   zones = "50"                       # a number, or "expert" / "expert:N"
 ///   schedule = "fast"                  # fast | paper
 ///   # epochs = 150                     # default: the schedule's; 0 with pretrained: index only
-///   pretrained = "builtin-joint"       # optional start weights: a file, builtin, builtin-track, builtin-joint
+///   pretrained = "builtin-joint"       # optional start weights: a file, builtin, builtin-track, builtin-joint, builtin-changes
 ///   pairs = "zone"                     # zone (the paper's) | track
 ///   [map]
 ///   images_per_zone = 8
