@@ -57,8 +57,9 @@ pub struct ZoneSweepJob {
     #[cfg_attr(feature = "cli", arg(long))]
     pub keep_models: bool,
     /// Start weights of every run's zone network: a file, or `builtin`, `builtin-track`,
-    /// `builtin-joint`, `builtin-changes` (the shipped networks). With 0 `epochs` a run only indexes the training
-    /// pass with them (the shipped network without training; one run per count).
+    /// `builtin-joint`, `builtin-changes` (the shipped networks). With 0 `epochs` a run only
+    /// indexes the training pass with them (the shipped network without training; one run per
+    /// count).
     #[cfg_attr(feature = "cli", arg(long))]
     pub pretrained: Option<PathBuf>,
     /// Run only this cell of the grid, COUNT:RUN (e.g. 50:3), as printed with `print_jobs`;

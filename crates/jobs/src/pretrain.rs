@@ -23,8 +23,9 @@ use endoloc_sim::{ChangeConfig, Preset, Severity};
 /// from the previous one's weights, the network is trained with the test pass's frames in
 /// the zone of their nearest training pose; with `joint`, one network is trained on every
 /// colon at once instead. With `changes`, each test pass goes through its colon changed at
-/// random ([`ChangeConfig::draw`]): the pairs across the passes then span the change. Writes `out/colon-SEED/` (datasets), `out/model-SEED/` (models; with
-/// `joint` one `out/joint/`); a colon or model already in `out` is reused.
+/// random ([`ChangeConfig::draw`]): the pairs across the passes then span the change. Writes
+/// `out/colon-SEED/` (datasets), `out/model-SEED/` (models; with `joint` one `out/joint/`); a
+/// colon or model already in `out` is reused.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
