@@ -61,7 +61,7 @@ pub enum Factor {
     /// Bubbles on the lens (`look.bubble_frames`, `look.bubble_cover`).
     Bubbles,
     /// Motion blur and defocus of the test scope (`scope.motion_blur_samples`,
-    /// `scope.defocus_px`).
+    /// `scope.motion_blur_mm`, `scope.defocus_px`).
     Blur,
     /// The test scope's wider field of view (`scope.hfov_change_deg`; its camera known).
     Fov,
@@ -161,6 +161,7 @@ impl Factor {
             }
             Factor::Blur => {
                 c.scope.motion_blur_samples = p.scope.motion_blur_samples;
+                c.scope.motion_blur_mm = p.scope.motion_blur_mm;
                 c.scope.defocus_px = p.scope.defocus_px;
             }
             Factor::Fov => c.scope.hfov_change_deg = p.scope.hfov_change_deg,
@@ -1056,6 +1057,7 @@ mod tests {
                     look.bubble_frames,
                     look.bubble_cover,
                     scope.motion_blur_samples,
+                    scope.motion_blur_mm,
                     scope.defocus_px,
                     scope.hfov_change_deg
                 );

@@ -52,6 +52,12 @@ pub struct RenderConfig {
     pub motion_blur_samples: usize,
     /// Exposure time as a fraction of the frame interval (for motion blur).
     pub shutter_fraction: f64,
+    /// Motion blur as the camera's travel during an exposure, mm: the sub-frames span this
+    /// much of the camera's path around each frame (at most one frame interval), whatever
+    /// the frames' spacing. 0 (default): `shutter_fraction` of the frame interval, so that a
+    /// pass sampled sparsely (a few millimetres between frames) blurs over millimetres.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub motion_blur_mm: f64,
     /// Radius of a circular field stop centred on the principal point, as a fraction of the
     /// half image diagonal (0 = none): pixels outside it are black, as on real endoscopes.
     pub field_stop: f64,
@@ -78,6 +84,7 @@ impl Default for RenderConfig {
             noise_sigma: 1.5,
             motion_blur_samples: 1,
             shutter_fraction: 0.5,
+            motion_blur_mm: 0.0,
             field_stop: 0.0,
             black_border_px: 0,
             exposure_jitter: 0.0,
@@ -131,6 +138,11 @@ impl RenderConfig {
             "shutter_fraction",
             self.shutter_fraction,
             (0.0..=1.0).contains(&self.shutter_fraction),
+        )?;
+        check(
+            "motion_blur_mm",
+            self.motion_blur_mm,
+            (0.0..=50.0).contains(&self.motion_blur_mm),
         )?;
         if self.motion_blur_samples == 0 || self.motion_blur_samples > 64 {
             return Err(SimError::InvalidConfig(format!(
@@ -907,4 +919,8 @@ fn normalize(a: [f32; 3]) -> [f32; 3] {
     } else {
         [0.0, 0.0, -1.0]
     }
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }

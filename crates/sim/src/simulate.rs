@@ -149,6 +149,7 @@ pub fn simulate(
                     motion_blur_samples: c
                         .motion_blur_samples
                         .unwrap_or(cfg.render.motion_blur_samples),
+                    motion_blur_mm: c.motion_blur_mm.unwrap_or(cfg.render.motion_blur_mm),
                     ..cfg.render.clone()
                 },
             )?
@@ -241,6 +242,30 @@ pub fn simulate(
     })
 }
 
+/// The exposure around frame `k`, in frame intervals: the render setting `shutter_fraction`,
+/// or with `motion_blur_mm` the time the camera takes to travel that far along its path at
+/// its speed around `k` (at most one frame interval; a camera at rest blurs nothing more).
+pub fn exposure_frames(cfg: &RenderConfig, generator: &PassGenerator<'_>, k: usize) -> f64 {
+    if cfg.motion_blur_mm <= 0.0 {
+        return cfg.shutter_fraction;
+    }
+    // The camera's path length over the frame interval around `k`, mm (eight chords).
+    let at = |t: f64| {
+        generator
+            .pose_at(k as f64 + t / 8.0 - 0.5)
+            .0
+            .translation
+            .vector
+    };
+    let step_mm: f64 = (0..8)
+        .map(|i| (at(i as f64 + 1.0) - at(i as f64)).norm())
+        .sum();
+    if step_mm <= cfg.motion_blur_mm {
+        1.0
+    } else {
+        cfg.motion_blur_mm / step_mm
+    }
+}
 /// Renders every frame of a pass in parallel and hands each to `sink` (called from worker
 /// threads, in no particular order). Stops at the first error. With a `deformation` every
 /// pose of the pass (planned in the unchanged colon) is carried into the changed colon the
@@ -257,13 +282,13 @@ pub fn render_pass<E: Send>(
     sink: impl Fn(usize, &crate::render::RenderedFrame) -> Result<(), E> + Sync,
 ) -> Result<(), E> {
     let samples = renderer.config().motion_blur_samples.max(1) | 1; // odd: middle = frame time
-    let shutter = renderer.config().shutter_fraction;
     (0..pass.poses.len())
         .into_par_iter()
         .try_for_each_init(RenderScratch::default, |scratch, k| {
             let mut sub: Vec<_> = if samples == 1 {
                 vec![(pass.poses[k], pass.s_mm[k])]
             } else {
+                let shutter = exposure_frames(renderer.config(), generator, k);
                 (0..samples)
                     .map(|j| {
                         let dt = (j as f64 / (samples - 1) as f64 - 0.5) * shutter;

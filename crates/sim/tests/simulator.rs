@@ -546,3 +546,43 @@ fn an_unchanged_colon_gives_the_same_bytes_and_a_changed_one_keeps_anatomical_po
         "the change moves the test pass ({moved_by} mm)"
     );
 }
+
+#[test]
+fn motion_blur_in_mm_spans_that_travel_whatever_the_frame_spacing() {
+    use endoloc_sim::render::RenderConfig;
+    use endoloc_sim::simulate::exposure_frames;
+    let cfg = SimConfig::preset(Preset::Small).with_seed(3);
+    let colon = build_colon(&cfg).unwrap();
+    let travel = |frames: usize, render: &RenderConfig| -> f64 {
+        let mut traj = cfg.test.clone();
+        traj.frames = frames;
+        let g = PassGenerator::new(&colon, &traj).unwrap();
+        // The exposure of frames mid-pass, as the camera's travel from its start to its end.
+        let at = |t: f64| g.pose_at(t).0.translation.vector;
+        let ks = (frames / 2..frames / 2 + 8).map(|k| k as f64);
+        let mean = |v: Vec<f64>| v.iter().sum::<f64>() / v.len() as f64;
+        mean(
+            ks.map(|k| {
+                let span = exposure_frames(render, &g, k as usize);
+                (at(k + span / 2.0) - at(k - span / 2.0)).norm()
+            })
+            .collect(),
+        )
+    };
+    let shutter = RenderConfig::default();
+    let in_mm = RenderConfig {
+        motion_blur_mm: 0.3,
+        ..RenderConfig::default()
+    };
+    // Over the shutter, a pass four times as sparse blurs over about four times the travel;
+    // in mm, both blur over 0.3 mm.
+    let (sparse, dense) = (travel(300, &shutter), travel(1200, &shutter));
+    assert!(
+        sparse > 2.5 * dense && sparse > 1.0,
+        "{sparse} vs {dense} mm"
+    );
+    for frames in [300, 1200] {
+        let mm = travel(frames, &in_mm);
+        assert!((mm - 0.3).abs() < 0.03, "{frames} frames: {mm} mm");
+    }
+}

@@ -193,6 +193,11 @@ impl LookChange {
 pub struct ScopeChange {
     /// Sub-frames averaged per test frame for motion blur (0: as the map pass).
     pub motion_blur_samples: usize,
+    /// With the sub-frames: the camera's travel during a test frame's exposure, mm (the render
+    /// setting `motion_blur_mm`; 0: over the map pass's shutter, a fraction of the frame
+    /// interval).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub motion_blur_mm: f64,
     /// Defocus: standard deviation of a Gaussian blur of the test frames, pixels (0 = none).
     pub defocus_px: f64,
     /// The test scope's horizontal field of view minus the map scope's, degrees (0: the same
@@ -205,6 +210,7 @@ impl Default for ScopeChange {
     fn default() -> Self {
         ScopeChange {
             motion_blur_samples: 0,
+            motion_blur_mm: 0.0,
             defocus_px: 0.0,
             hfov_change_deg: 0.0,
         }
@@ -214,7 +220,10 @@ impl Default for ScopeChange {
 impl ScopeChange {
     /// Whether the test scope sees as the map pass's does.
     pub fn is_none(&self) -> bool {
-        self.motion_blur_samples == 0 && self.defocus_px == 0.0 && self.hfov_change_deg == 0.0
+        self.motion_blur_samples == 0
+            && self.motion_blur_mm == 0.0
+            && self.defocus_px == 0.0
+            && self.hfov_change_deg == 0.0
     }
 }
 
@@ -285,6 +294,7 @@ impl ChangeConfig {
                     },
                     ScopeChange {
                         motion_blur_samples: p([0.0, 3.0, 5.0]) as usize,
+                        motion_blur_mm: p([0.0, 0.3, 0.6]),
                         defocus_px: p([0.3, 0.7, 1.2]),
                         hfov_change_deg: p([5.0, 10.0, 20.0]),
                     },
@@ -334,6 +344,9 @@ impl ChangeConfig {
         };
         let mut scope = ScopeChange {
             motion_blur_samples: lerp(0.0, c.motion_blur_samples as f64).round() as usize,
+            // Over the map pass's shutter (as the drawn changes of the shipped pretrained
+            // weights were rendered).
+            motion_blur_mm: 0.0,
             defocus_px: lerp(0.0, c.defocus_px),
             hfov_change_deg: 0.0,
         };
@@ -450,6 +463,11 @@ impl ChangeConfig {
             )));
         }
         check(
+            "scope.motion_blur_mm",
+            self.scope.motion_blur_mm,
+            (0.0..=50.0).contains(&self.scope.motion_blur_mm),
+        )?;
+        check(
             "scope.defocus_px",
             self.scope.defocus_px,
             (0.0..=20.0).contains(&self.scope.defocus_px),
@@ -461,6 +479,10 @@ impl ChangeConfig {
         )?;
         Ok(())
     }
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 #[cfg(test)]

@@ -42,6 +42,8 @@ pub struct ChangedPass {
     pub look: ChangedLook,
     /// Motion-blur sub-frames of the test scope (`None`: as the map pass).
     pub motion_blur_samples: Option<usize>,
+    /// The test scope's travel during an exposure, mm (`None`: the map pass's shutter).
+    pub motion_blur_mm: Option<f64>,
     /// What changed, in words, for the user.
     pub notes: Vec<String>,
 }
@@ -109,8 +111,13 @@ impl ChangedPass {
             (ch.scope.motion_blur_samples > 0).then_some(ch.scope.motion_blur_samples);
         if !ch.scope.is_none() {
             notes.push(format!(
-                "test scope: motion blur of {} sub-frames, defocus σ {:.1} px, {}",
+                "test scope: motion blur of {} sub-frames{}, defocus σ {:.1} px, {}",
                 motion_blur_samples.map_or("the map pass's".to_string(), |n| n.to_string()),
+                if ch.scope.motion_blur_mm > 0.0 {
+                    format!(" over {:.2} mm of travel", ch.scope.motion_blur_mm)
+                } else {
+                    String::new()
+                },
                 ch.scope.defocus_px,
                 if ch.scope.hfov_change_deg == 0.0 {
                     "the map scope's field of view".to_string()
@@ -128,6 +135,7 @@ impl ChangedPass {
             atlas,
             look: ChangedLook::new(l, &ch.scope, seed(3)),
             motion_blur_samples,
+            motion_blur_mm: (ch.scope.motion_blur_mm > 0.0).then_some(ch.scope.motion_blur_mm),
             notes,
         })
     }
