@@ -20,7 +20,7 @@ use crate::SimError;
 /// | residue on the wall | 2 % | 5 % | 12 % |
 /// | fluid on the dependent side | 1 % | 3 % | 8 % |
 /// | frames with bubbles, cover up to | 2 %, 10 % | 5 %, 20 % | 12 %, 40 % |
-/// | motion blur sub-frames, defocus σ | as the map pass, 0.3 px | 3, 0.7 px | 5, 1.2 px |
+/// | motion blur sub-frames over the camera's travel, defocus σ | as the map pass, 0.3 px | 3 over 0.3 mm, 0.7 px | 5 over 0.6 mm, 1.2 px |
 /// | test scope's wider field of view | 5° | 10° | 20° |
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
