@@ -266,6 +266,7 @@ pub fn exposure_frames(cfg: &RenderConfig, generator: &PassGenerator<'_>, k: usi
         cfg.motion_blur_mm / step_mm
     }
 }
+
 /// Renders every frame of a pass in parallel and hands each to `sink` (called from worker
 /// threads, in no particular order). Stops at the first error. With a `deformation` every
 /// pose of the pass (planned in the unchanged colon) is carried into the changed colon the
