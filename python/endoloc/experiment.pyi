@@ -104,9 +104,10 @@ def changes(
     - ``seeds``: Procedural colons: simulator seeds (default 1 to 5).
     - ``gca``: CT colons: GCA model folders.
     - ``inflation``: Lumen inflation of the CT colons.
-    - ``factors``: Factors, each alone (default all): shift, insufflation, deform,
-      exposure, colour, light, specular, texture, residue, bubbles, blur, fov, and ``all``
-      (every factor at once).
+    - ``factors``: Conditions, each a factor alone or factors together (default: every
+      factor alone, and ``all``): shift, insufflation, deform, exposure, colour, light,
+      specular, texture, residue, bubbles, blur, fov; the groups ``shape``, ``look``,
+      ``scope``; ``all``; several joined by ``+`` change together (``shape+texture``).
     - ``severities``: Severities of each factor (default mild, moderate, severe).
     - ``train_frames``: Frames of each training pass (default: the preset's).
     - ``test_frames``: Frames of each test pass (default: the preset's).

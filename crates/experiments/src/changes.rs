@@ -36,9 +36,8 @@ use super::benchmark::{
 use super::common::{self, DataArgs, MethodRow, shell_quote};
 use super::compare::{CompareJob, Method};
 
-/// One factor of the change model, or all of them at once (`all`: the severity preset).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
+/// One factor of the change model (docs/SIMULATOR.md's table).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Factor {
     /// Mobile segments shifted (`shape.shift_mm`).
     Shift,
@@ -65,13 +64,11 @@ pub enum Factor {
     Blur,
     /// The test scope's wider field of view (`scope.hfov_change_deg`; its camera known).
     Fov,
-    /// Every factor at once: the severity preset.
-    All,
 }
 
 impl Factor {
-    /// Every factor, shape first, then look, scope, and all at once.
-    pub const ALL: [Factor; 13] = [
+    /// Every factor: shape, then look, then scope.
+    pub const EACH: [Factor; 12] = [
         Factor::Shift,
         Factor::Insufflation,
         Factor::Deform,
@@ -84,7 +81,6 @@ impl Factor {
         Factor::Bubbles,
         Factor::Blur,
         Factor::Fov,
-        Factor::All,
     ];
 
     /// The name on the command line and in folder names.
@@ -102,7 +98,6 @@ impl Factor {
             Factor::Bubbles => "bubbles",
             Factor::Blur => "blur",
             Factor::Fov => "fov",
-            Factor::All => "all",
         }
     }
 
@@ -121,18 +116,11 @@ impl Factor {
             Factor::Bubbles => "bubbles on the lens",
             Factor::Blur => "motion blur, defocus",
             Factor::Fov => "wider field of view",
-            Factor::All => "every change at once",
         }
     }
 
-    /// The change of this factor alone at `severity`: its settings from the severity preset
-    /// (docs/SIMULATOR.md's table), every other as in `none`; `All`: the whole preset.
-    pub fn change(self, severity: Severity) -> ChangeConfig {
-        let p = ChangeConfig::preset(severity);
-        let mut c = ChangeConfig {
-            severity,
-            ..ChangeConfig::default()
-        };
+    /// Copies this factor's settings from `preset` into `c`.
+    fn apply(self, c: &mut ChangeConfig, p: &ChangeConfig) {
         match self {
             Factor::Shift => c.shape.shift_mm = p.shape.shift_mm,
             Factor::Insufflation => c.shape.insufflation = p.shape.insufflation,
@@ -165,9 +153,11 @@ impl Factor {
                 c.scope.defocus_px = p.scope.defocus_px;
             }
             Factor::Fov => c.scope.hfov_change_deg = p.scope.hfov_change_deg,
-            Factor::All => c = p,
         }
-        c
+    }
+
+    fn bit(self) -> u16 {
+        1 << Factor::EACH.iter().position(|f| *f == self).unwrap_or(0)
     }
 }
 
@@ -177,16 +167,160 @@ impl std::fmt::Display for Factor {
     }
 }
 
-impl std::str::FromStr for Factor {
+/// The groups a set of factors can name at once: name, description, members.
+const GROUPS: [(&str, &str, &[Factor]); 3] = [
+    (
+        "shape",
+        "the colon's shape",
+        &[Factor::Shift, Factor::Insufflation, Factor::Deform],
+    ),
+    (
+        "look",
+        "the colon's look",
+        &[
+            Factor::Exposure,
+            Factor::Colour,
+            Factor::Light,
+            Factor::Specular,
+            Factor::Texture,
+            Factor::Residue,
+            Factor::Bubbles,
+        ],
+    ),
+    ("scope", "the test scope", &[Factor::Blur, Factor::Fov]),
+];
+
+/// Factors changed together in one condition: one factor (`shift`), a combination
+/// (`shift+texture`), a group (`shape`, `look`, `scope`, and combinations of them and of single
+/// factors: `shape+blur`), or `all` (every factor: the severity preset). Written and read as
+/// that name; a group is named whenever all its factors are in the set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct Factors(u16);
+
+impl Factors {
+    /// Every factor at once: the severity preset.
+    pub const ALL: Factors = Factors((1 << Factor::EACH.len()) - 1);
+
+    /// One factor alone.
+    pub fn one(f: Factor) -> Factors {
+        Factors(f.bit())
+    }
+
+    /// Whether `f` is one of them.
+    pub fn contains(self, f: Factor) -> bool {
+        self.0 & f.bit() != 0
+    }
+
+    /// The factors, in [`Factor::EACH`]'s order.
+    pub fn iter(self) -> impl Iterator<Item = Factor> {
+        Factor::EACH.into_iter().filter(move |f| self.contains(*f))
+    }
+
+    /// The default conditions of the study: each factor alone, then all at once.
+    pub fn each_and_all() -> Vec<Factors> {
+        let mut v: Vec<Factors> = Factor::EACH.into_iter().map(Factors::one).collect();
+        v.push(Factors::ALL);
+        v
+    }
+
+    /// Its parts, groups whole where they are: (name, description).
+    fn parts(self) -> Vec<(&'static str, &'static str)> {
+        if self == Factors::ALL {
+            return vec![("all", "every change at once")];
+        }
+        let mut parts = Vec::new();
+        for (name, description, members) in GROUPS {
+            if members.len() > 1 && members.iter().all(|f| self.contains(*f)) {
+                parts.push((name, description));
+            } else {
+                parts.extend(
+                    members
+                        .iter()
+                        .filter(|f| self.contains(**f))
+                        .map(|f| (f.name(), f.description())),
+                );
+            }
+        }
+        parts
+    }
+
+    /// The name on the command line and in folder names: `shift`, `shape+texture`, `all`.
+    pub fn name(self) -> String {
+        let names: Vec<&str> = self.parts().iter().map(|p| p.0).collect();
+        names.join("+")
+    }
+
+    /// What it changes, for tables.
+    pub fn description(self) -> String {
+        let d: Vec<&str> = self.parts().iter().map(|p| p.1).collect();
+        d.join(" + ")
+    }
+
+    /// The change of these factors at `severity`: their settings from the severity preset
+    /// (docs/SIMULATOR.md's table), every other as in `none`; all of them: the whole preset.
+    pub fn change(self, severity: Severity) -> ChangeConfig {
+        let p = ChangeConfig::preset(severity);
+        if self == Factors::ALL {
+            return p;
+        }
+        let mut c = ChangeConfig {
+            severity,
+            ..ChangeConfig::default()
+        };
+        for f in self.iter() {
+            f.apply(&mut c, &p);
+        }
+        c
+    }
+}
+
+impl From<Factor> for Factors {
+    fn from(f: Factor) -> Factors {
+        Factors::one(f)
+    }
+}
+
+impl std::fmt::Display for Factors {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+impl std::str::FromStr for Factors {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        Factor::ALL
-            .into_iter()
-            .find(|f| f.name() == s)
-            .ok_or_else(|| {
-                let names: Vec<&str> = Factor::ALL.iter().map(|f| f.name()).collect();
-                format!("unknown factor {s:?}; expected one of {}", names.join(", "))
-            })
+        let mut bits = 0;
+        for part in s.split('+').map(str::trim) {
+            bits |= if part == "all" {
+                Factors::ALL.0
+            } else if let Some((_, _, members)) = GROUPS.iter().find(|g| g.0 == part) {
+                members.iter().fold(0, |b, f| b | f.bit())
+            } else if let Some(f) = Factor::EACH.iter().find(|f| f.name() == part) {
+                f.bit()
+            } else {
+                let names: Vec<&str> = Factor::EACH.iter().map(|f| f.name()).collect();
+                return Err(format!(
+                    "unknown factor {part:?}; expected one of {}, a group (shape, look, scope), \
+                     all, or several joined by `+`",
+                    names.join(", ")
+                ));
+            };
+        }
+        Ok(Factors(bits))
+    }
+}
+
+impl TryFrom<String> for Factors {
+    type Error = String;
+    fn try_from(s: String) -> std::result::Result<Self, String> {
+        s.parse()
+    }
+}
+
+impl From<Factors> for String {
+    fn from(f: Factors) -> String {
+        f.name()
     }
 }
 
@@ -218,11 +352,12 @@ pub struct ChangesJob {
     /// Lumen inflation of the CT colons (see the simulate job's `inflation`).
     #[cfg_attr(feature = "cli", arg(long))]
     pub inflation: Option<f64>,
-    /// Factors, each alone (default: all of them, and `all`, every factor at once): shift,
-    /// insufflation, deform, exposure, colour, light, specular, texture, residue, bubbles,
-    /// blur, fov, all.
+    /// Conditions, each a factor alone or factors together (default: every factor alone, and
+    /// `all`, every factor at once): shift, insufflation, deform, exposure, colour, light,
+    /// specular, texture, residue, bubbles, blur, fov; the groups shape, look, scope; all;
+    /// several joined by `+` change together (`shape+texture`).
     #[cfg_attr(feature = "cli", arg(long, value_delimiter = ','))]
-    pub factors: Vec<Factor>,
+    pub factors: Vec<Factors>,
     /// Severities of each factor (default: mild, moderate, severe).
     #[cfg_attr(
         feature = "cli",
@@ -303,12 +438,12 @@ impl Default for ChangesJob {
     }
 }
 
-/// One condition: the test pass unchanged (`factor` `None`), or one factor (or all) at one
+/// One condition: the test pass unchanged (`factor` `None`), or some factors (or all) at one
 /// severity.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Condition {
-    /// The factor changed; `None`: nothing.
-    pub factor: Option<Factor>,
+    /// The factors changed; `None`: nothing.
+    pub factor: Option<Factors>,
     /// Its severity (`None` for the unchanged pass).
     pub severity: Severity,
 }
@@ -324,7 +459,7 @@ impl Condition {
     pub fn name(&self) -> String {
         match self.factor {
             None => "none".into(),
-            Some(f) => format!("{}-{}", f.name(), self.severity.name()),
+            Some(f) => format!("{f}-{}", self.severity.name()),
         }
     }
 
@@ -351,8 +486,8 @@ pub struct ConditionRow {
 pub struct ConditionSummary {
     /// The condition's name.
     pub condition: String,
-    /// The factor (`None`: unchanged).
-    pub factor: Option<Factor>,
+    /// The factors (`None`: unchanged).
+    pub factor: Option<Factors>,
     /// Its severity.
     pub severity: Severity,
     /// Colons with this condition finished.
@@ -434,9 +569,9 @@ impl ChangesJob {
         }
     }
 
-    fn factors(&self) -> Vec<Factor> {
+    fn factors(&self) -> Vec<Factors> {
         if self.factors.is_empty() {
-            Factor::ALL.to_vec()
+            Factors::each_and_all()
         } else {
             self.factors.clone()
         }
@@ -495,7 +630,7 @@ impl ChangesJob {
             self.test_frames,
         ));
         if !self.factors.is_empty() {
-            let f: Vec<&str> = self.factors.iter().map(|f| f.name()).collect();
+            let f: Vec<String> = self.factors.iter().map(|f| f.name()).collect();
             c.push_str(&format!(" --factors {}", f.join(",")));
         }
         if !self.severities.is_empty() {
@@ -809,7 +944,7 @@ impl ChangesJob {
                         points.push(((k + 1) as f64, s.and_then(value)));
                     }
                     Series {
-                        name: f.name().into(),
+                        name: f.name(),
                         points,
                     }
                 })
@@ -922,8 +1057,7 @@ fn summary_table(summary: &[ConditionSummary]) -> String {
     s.push_str(&format!("|{}\n", "---|".repeat(HEADER.len())));
     for c in summary {
         let cells = [
-            c.factor
-                .map_or("nothing".to_string(), |f| f.description().to_string()),
+            c.factor.map_or("nothing".to_string(), Factors::description),
             c.severity.name().to_string(),
             c.colons.to_string(),
             pm(&c.live_refined_pct, 1),
@@ -974,7 +1108,7 @@ fn breakpoints(
     severities: &[Severity],
     baseline: &dyn Fn(&ConditionSummary) -> Option<ConditionSummary>,
 ) -> Vec<String> {
-    let mut factors: Vec<Factor> = Vec::new();
+    let mut factors: Vec<Factors> = Vec::new();
     for s in summary {
         if let Some(f) = s.factor
             && !factors.contains(&f)
@@ -1017,9 +1151,9 @@ mod tests {
     fn each_factor_changes_only_its_own_settings_and_all_is_the_preset() {
         for sev in [Severity::Mild, Severity::Moderate, Severity::Severe] {
             let preset = ChangeConfig::preset(sev);
-            assert_eq!(Factor::All.change(sev), preset);
-            for f in Factor::ALL.into_iter().filter(|f| *f != Factor::All) {
-                let c = f.change(sev);
+            assert_eq!(Factors::ALL.change(sev), preset);
+            for f in Factor::EACH {
+                let c = Factors::one(f).change(sev);
                 assert!(!c.is_none(), "{f} at {} changes something", sev.name());
                 // Only one of the three groups moves.
                 let groups = [!c.shape.is_none(), !c.look.is_none(), !c.scope.is_none()];
@@ -1030,8 +1164,8 @@ mod tests {
                 severity: sev,
                 ..ChangeConfig::default()
             };
-            for f in Factor::ALL.into_iter().filter(|f| *f != Factor::All) {
-                let c = f.change(sev);
+            for f in Factor::EACH {
+                let c = Factors::one(f).change(sev);
                 let d = ChangeConfig::default();
                 if c.shape != d.shape {
                     sum.shape.shift_mm = sum.shape.shift_mm.max(c.shape.shift_mm);
@@ -1063,9 +1197,49 @@ mod tests {
                 );
             }
             assert_eq!(sum, preset, "{}", sev.name());
+            // The three groups together are the preset too; two factors are their union.
+            assert_eq!(
+                "shape+look+scope".parse::<Factors>().unwrap().change(sev),
+                preset
+            );
+            let (shift, blur) = (Factors::one(Factor::Shift), Factors::one(Factor::Blur));
+            let both = "blur+shift".parse::<Factors>().unwrap().change(sev);
+            assert_eq!(both.shape, shift.change(sev).shape);
+            assert_eq!(both.scope, blur.change(sev).scope);
+            assert!(both.look.is_none());
         }
-        assert_eq!("fov".parse::<Factor>(), Ok(Factor::Fov));
-        assert!("foam".parse::<Factor>().unwrap_err().contains("shift"));
+    }
+
+    #[test]
+    fn factors_read_and_write_as_names_with_groups_whole() {
+        let parse = |s: &str| s.parse::<Factors>().unwrap();
+        assert_eq!(parse("fov"), Factors::one(Factor::Fov));
+        assert_eq!(parse("fov").name(), "fov");
+        assert_eq!(parse("fov").description(), "wider field of view");
+        // Named in the model's order, a whole group by its name, everything as `all`.
+        assert_eq!(
+            parse("texture+deform+insufflation+shift").name(),
+            "shape+texture"
+        );
+        assert_eq!(parse("look+scope").name(), "look+scope");
+        assert_eq!(parse("shape+look+scope"), Factors::ALL);
+        assert_eq!(parse("all").name(), "all");
+        assert_eq!(parse("all").description(), "every change at once");
+        assert_eq!(
+            parse("shift+blur").description(),
+            "mobile segments shifted + motion blur, defocus"
+        );
+        for f in Factors::each_and_all() {
+            assert_eq!(parse(&f.name()), f);
+            let json = serde_json::to_string(&f).unwrap();
+            assert_eq!(json, format!("\"{f}\""));
+            assert_eq!(serde_json::from_str::<Factors>(&json).unwrap(), f);
+        }
+        let e = "shift+foam".parse::<Factors>().unwrap_err();
+        assert!(
+            e.contains("\"foam\"") && e.contains("shift") && e.contains("scope"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -1086,18 +1260,18 @@ mod tests {
             frame_wrong_pct: None,
         };
         let sevs = [Severity::Mild, Severity::Moderate, Severity::Severe];
-        let mut none = row(Factor::All, Severity::None, 85.0, 0.5, 0.3);
+        let mut none = row(Factors::ALL, Severity::None, 85.0, 0.5, 0.3);
         none.factor = None;
         let summary = [
             none,
             // As the unchanged pass: below 90 % refined, but not worse than without a change.
-            row(Factor::Fov, Severity::Mild, 84.0, 0.5, 0.3),
-            row(Factor::Shift, Severity::Mild, 97.0, 0.0, 0.5),
-            row(Factor::Shift, Severity::Moderate, 96.0, 20.0, 2.5),
-            row(Factor::Shift, Severity::Severe, 60.0, 40.0, 6.0),
-            row(Factor::Exposure, Severity::Mild, 99.0, 0.0, 0.2),
-            row(Factor::Exposure, Severity::Moderate, 98.0, 0.0, 0.3),
-            row(Factor::Exposure, Severity::Severe, 97.0, 0.5, 0.4),
+            row(Factor::Fov.into(), Severity::Mild, 84.0, 0.5, 0.3),
+            row(Factor::Shift.into(), Severity::Mild, 97.0, 0.0, 0.5),
+            row(Factor::Shift.into(), Severity::Moderate, 96.0, 20.0, 2.5),
+            row(Factor::Shift.into(), Severity::Severe, 60.0, 40.0, 6.0),
+            row(Factor::Exposure.into(), Severity::Mild, 99.0, 0.0, 0.2),
+            row(Factor::Exposure.into(), Severity::Moderate, 98.0, 0.0, 0.3),
+            row(Factor::Exposure.into(), Severity::Severe, 97.0, 0.5, 0.4),
         ];
         let base = summary[0].clone();
         let lines = breakpoints(&summary, &sevs, &|_| Some(base.clone()));
@@ -1122,7 +1296,7 @@ mod tests {
     fn every_colon_is_one_command_and_the_merge_is_the_last() {
         let job = ChangesJob {
             seeds: vec![1, 2],
-            factors: vec![Factor::Fov, Factor::Blur],
+            factors: vec![Factor::Fov.into(), Factor::Blur.into()],
             severities: vec![Severity::Severe, Severity::Mild],
             print_jobs: true,
             ..ChangesJob::default()

@@ -30,7 +30,9 @@ pub use benchmark::{
     BenchmarkJob, BenchmarkReport, ColonRow, Interval, MethodSummary, Seeds, interval, parse_seeds,
     t95,
 };
-pub use changes::{ChangesJob, ChangesReport, Condition, ConditionRow, ConditionSummary, Factor};
+pub use changes::{
+    ChangesJob, ChangesReport, Condition, ConditionRow, ConditionSummary, Factor, Factors,
+};
 pub use common::{DataArgs as ExperimentData, ExperimentReport, MethodRow};
 pub use compare::{CompareJob, Method as CompareMethod};
 pub use expert::ExpertJob;
