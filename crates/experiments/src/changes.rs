@@ -1,7 +1,8 @@
 //! `experiment changes`: how far endoloc's figures carry into a colon that changed between
 //! the passes. Every factor of the simulator's change model (docs/SIMULATOR.md) alone at each
-//! severity, and the presets with every factor at once, over several colons, each localized
-//! live and per frame against the colon as mapped.
+//! severity, and the presets with every factor at once (or chosen factors together:
+//! [`Factors`]), over several colons, each localized live and per frame against the colon as
+//! mapped.
 //!
 //! Per colon (`colons/<name>/`): the unchanged dataset (`none/data`), its index and map
 //! (`model/`), then one dataset per condition (`<factor>-<severity>/data`: the training pass is
