@@ -1,6 +1,7 @@
 //! Plots of experiments that compare runs: methods side by side (bar chart, the paper's
 //! Table I as a picture), errors against the zone count (box and whiskers, the paper's
-//! Fig. 4) and errors against a forced zone offset (the paper's Fig. 7).
+//! Fig. 4), errors against a forced zone offset (the paper's Fig. 7), lines against a common
+//! x and rows of horizontal bars (a study's conditions).
 //!
 //! Every plot has two panels, position error (mm) and orientation error (degrees), and is
 //! written as a PNG atomically. Like [`crate::plots`], text is drawn when a font is available.
@@ -589,6 +590,125 @@ fn series_panel(
     Ok(())
 }
 
+/// One row of [`plot_row_bars`]: a name and one value per bar series (`None`: missing).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BarRow {
+    /// The row's label, drawn left of its bars.
+    pub name: String,
+    /// One value per series, in the series' order.
+    pub values: Vec<Option<f64>>,
+}
+
+/// Draws one group of horizontal bars per row (e.g. one row per condition of a study, one bar
+/// per figure), the first row at the top, to `path`: for labels too long to stand under a
+/// bar. `series` names the bars of a group (legend), `x` is their common range (values beyond
+/// it are clipped) and `unit` its description.
+///
+/// # Errors
+/// [`EvalError::Plot`] if drawing or encoding fails; [`EvalError::Io`] if writing fails.
+pub fn plot_row_bars(
+    rows: &[BarRow],
+    series: &[&str],
+    title: &str,
+    unit: &str,
+    x: (f64, f64),
+    path: &Path,
+    config: &PlotConfig,
+) -> Result<(), EvalError> {
+    render_png(path, config, |root, text| {
+        let n = rows.len().max(1) as f64;
+        // Row k sits at y = n − 1 − k, so the first row is at the top.
+        let y = (-0.5, n - 0.5);
+        let longest = rows
+            .iter()
+            .map(|r| r.name.chars().count())
+            .max()
+            .unwrap_or(0);
+        let mut b = ChartBuilder::on(root);
+        b.margin(15)
+            .x_label_area_size(if text { 45 } else { 0 })
+            .y_label_area_size(if text {
+                (longest as u32 * 7 + 20).clamp(60, config.width_px / 2)
+            } else {
+                0
+            });
+        if text {
+            b.caption(title, ("sans-serif", 18));
+        }
+        let mut chart = b
+            .build_cartesian_2d(x.0..x.1, y.0..y.1)
+            .map_err(|e| e.to_string())?;
+        {
+            let name = |v: &f64| {
+                let k = (n - 1.0 - v).round();
+                if (n - 1.0 - v - k).abs() < 1e-6 && k >= 0.0 {
+                    rows.get(k as usize)
+                        .map(|r| r.name.clone())
+                        .unwrap_or_default()
+                } else {
+                    String::new()
+                }
+            };
+            let mut mesh = chart.configure_mesh();
+            mesh.light_line_style(RGBColor(235, 235, 235))
+                .disable_y_mesh()
+                .y_labels(rows.len() * 2 + 1);
+            if text {
+                mesh.x_desc(unit)
+                    .x_label_formatter(&tick_label)
+                    .y_label_formatter(&name)
+                    .label_style(("sans-serif", 12))
+                    .draw()
+                    .map_err(|e| e.to_string())?;
+            } else {
+                mesh.x_labels(0)
+                    .y_labels(0)
+                    .draw()
+                    .map_err(|e| e.to_string())?;
+                border(&mut chart, x, y)?;
+            }
+        }
+        let h = 0.8 / series.len().max(1) as f64;
+        for (k, row) in rows.iter().enumerate() {
+            let top = n - 1.0 - k as f64 + 0.4;
+            for (j, v) in row.values.iter().enumerate() {
+                let Some(v) = v.filter(|v| v.is_finite()) else {
+                    continue;
+                };
+                let color = Palette99::pick(j).to_rgba();
+                let y1 = top - j as f64 * h;
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(x.0, y1 - h * 0.9), (v.clamp(x.0, x.1), y1)],
+                        color.filled(),
+                    )))
+                    .map_err(|e| e.to_string())?;
+            }
+        }
+        if text && !series.is_empty() {
+            for (j, name) in series.iter().enumerate() {
+                let color = Palette99::pick(j).to_rgba();
+                chart
+                    .draw_series(std::iter::once(Circle::new((f64::NAN, f64::NAN), 0, color)))
+                    .map_err(|e| e.to_string())?
+                    .label(*name)
+                    .legend(move |(lx, ly)| {
+                        Rectangle::new([(lx, ly - 5), (lx + 12, ly + 5)], color.filled())
+                    });
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 12))
+                .draw()
+                .map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -671,7 +791,28 @@ mod tests {
         }];
         let r = dir.path().join("curve.png");
         plot_error_curve(&pts, "e", &r, &cfg).unwrap();
-        for f in [p, q, r] {
+        let rows = [
+            BarRow {
+                name: "none".into(),
+                values: vec![Some(96.0), Some(0.1)],
+            },
+            BarRow {
+                name: "shape+texture".into(),
+                values: vec![Some(40.0), None],
+            },
+        ];
+        let b = dir.path().join("rows.png");
+        plot_row_bars(
+            &rows,
+            &["refined", "wrong"],
+            "t",
+            "%",
+            (0.0, 100.0),
+            &b,
+            &cfg,
+        )
+        .unwrap();
+        for f in [p, q, r, b] {
             let img = image::open(&f).unwrap();
             assert_eq!((img.width(), img.height()), (400, 300));
         }

@@ -48,8 +48,8 @@ pub use ape::{PoseRelation, ape_errors};
 pub use association::{Association, AssociationConfig, MatchedPair, associate};
 pub use error::EvalError;
 pub use experiment_plots::{
-    BoxColumn, BoxStats, CurvePoint, MethodBar, Series, SeriesPanel, plot_error_boxes,
-    plot_error_curve, plot_method_bars, plot_series,
+    BarRow, BoxColumn, BoxStats, CurvePoint, MethodBar, Series, SeriesPanel, plot_error_boxes,
+    plot_error_curve, plot_method_bars, plot_row_bars, plot_series,
 };
 pub use frames_csv::{
     BOUND95_PER_STD, FRAMES_CSV_HEADER, FRAMES_CSV_HEADER_V1, FrameRecord, FramesCsvReader,

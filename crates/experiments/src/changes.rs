@@ -19,7 +19,7 @@
 
 use std::path::{Path, PathBuf};
 
-use endoloc_eval::{PlotConfig, Series, SeriesPanel, plot_series};
+use endoloc_eval::{BarRow, PlotConfig, Series, SeriesPanel, plot_row_bars, plot_series};
 use endoloc_jobs::bail;
 use endoloc_jobs::error::{Context, Result};
 use endoloc_jobs::note;
@@ -927,9 +927,55 @@ impl ChangesJob {
         Ok(table)
     }
 
-    /// Each factor's live figures against severity (the unchanged pass at `none`).
+    /// Each factor's live figures against severity (the unchanged pass at `none`); with
+    /// factors changed together, whose names are too long for a legend, one row of bars per
+    /// condition instead.
     fn plot(&self, summary: &[ConditionSummary]) -> Result<()> {
         let severities = self.severities();
+        if self
+            .factors()
+            .iter()
+            .any(|f| *f != Factors::ALL && f.iter().count() > 1)
+        {
+            let rows: Vec<BarRow> = summary
+                .iter()
+                .map(|s| {
+                    let name = match s.factor {
+                        None => "none".to_string(),
+                        Some(f) if severities.len() > 1 => format!("{f} ({})", s.severity.name()),
+                        Some(f) => f.name(),
+                    };
+                    let mean = |i: &Option<Interval>| i.as_ref().map(|i| i.mean);
+                    BarRow {
+                        name,
+                        values: vec![
+                            mean(&s.live_refined_pct),
+                            mean(&s.live_wrong_pct),
+                            mean(&s.frame_refined_pct),
+                        ],
+                    }
+                })
+                .collect();
+            let config = PlotConfig {
+                width_px: 1100,
+                height_px: 140 + 40 * rows.len() as u32,
+                ..PlotConfig::default()
+            };
+            plot_row_bars(
+                &rows,
+                &[
+                    "live: refined",
+                    "live: refined > 5 mm off (% of refined)",
+                    "per frame: refined",
+                ],
+                "Conditions: means over the colons",
+                "%",
+                (0.0, 100.0),
+                &self.out.join("changes.png"),
+                &config,
+            )?;
+            return Ok(());
+        }
         let mut ticks = vec!["none"];
         ticks.extend(severities.iter().map(|s| s.name()));
         let none = summary.iter().find(|s| s.factor.is_none());
