@@ -143,6 +143,21 @@ fn axes(
     Ok(())
 }
 
+/// Without text: the plot area's background mesh without labels, and its border.
+fn bare_frame(
+    chart: &mut crate::plots::Chart<'_, '_>,
+    x: (f64, f64),
+    y: (f64, f64),
+) -> Result<(), String> {
+    chart
+        .configure_mesh()
+        .x_labels(0)
+        .y_labels(0)
+        .draw()
+        .map_err(|e| e.to_string())?;
+    border(chart, x, y)
+}
+
 /// An axis tick as a person writes it: `40` rather than `40.0`, `0.25` rather than
 /// `0.25000000000000006`.
 fn tick_label(v: &f64) -> String {
@@ -542,13 +557,10 @@ fn series_panel(
                 .label_style(("sans-serif", 13))
                 .draw()
                 .map_err(|e| e.to_string())?;
-        } else {
-            mesh.x_labels(0)
-                .y_labels(0)
-                .draw()
-                .map_err(|e| e.to_string())?;
-            border(&mut chart, x, y)?;
         }
+    }
+    if !text {
+        bare_frame(&mut chart, x, y)?;
     }
     for (k, s) in panel.series.iter().enumerate() {
         let color = Palette99::pick(k).to_rgba();
@@ -660,13 +672,10 @@ pub fn plot_row_bars(
                     .label_style(("sans-serif", 12))
                     .draw()
                     .map_err(|e| e.to_string())?;
-            } else {
-                mesh.x_labels(0)
-                    .y_labels(0)
-                    .draw()
-                    .map_err(|e| e.to_string())?;
-                border(&mut chart, x, y)?;
             }
+        }
+        if !text {
+            bare_frame(&mut chart, x, y)?;
         }
         let h = 0.8 / series.len().max(1) as f64;
         for (k, row) in rows.iter().enumerate() {

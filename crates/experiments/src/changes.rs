@@ -168,27 +168,16 @@ impl std::fmt::Display for Factor {
     }
 }
 
-/// The groups a set of factors can name at once: name, description, members.
+/// The groups a set of factors can name at once: name, description, members (consecutive in
+/// [`Factor::EACH`]).
 const GROUPS: [(&str, &str, &[Factor]); 3] = [
-    (
-        "shape",
-        "the colon's shape",
-        &[Factor::Shift, Factor::Insufflation, Factor::Deform],
-    ),
+    ("shape", "the colon's shape", Factor::EACH.split_at(3).0),
     (
         "look",
         "the colon's look",
-        &[
-            Factor::Exposure,
-            Factor::Colour,
-            Factor::Light,
-            Factor::Specular,
-            Factor::Texture,
-            Factor::Residue,
-            Factor::Bubbles,
-        ],
+        Factor::EACH.split_at(3).1.split_at(7).0,
     ),
-    ("scope", "the test scope", &[Factor::Blur, Factor::Fov]),
+    ("scope", "the test scope", Factor::EACH.split_at(10).1),
 ];
 
 /// Factors changed together in one condition: one factor (`shift`), a combination
@@ -1270,6 +1259,13 @@ mod tests {
         );
         assert_eq!(parse("look+scope").name(), "look+scope");
         assert_eq!(parse("shape+look+scope"), Factors::ALL);
+        let members = |s: &str| parse(s).iter().collect::<Vec<_>>();
+        assert_eq!(
+            members("shape"),
+            [Factor::Shift, Factor::Insufflation, Factor::Deform]
+        );
+        assert_eq!(members("look").len(), 7);
+        assert_eq!(members("scope"), [Factor::Blur, Factor::Fov]);
         assert_eq!(parse("all").name(), "all");
         assert_eq!(parse("all").description(), "every change at once");
         assert_eq!(
