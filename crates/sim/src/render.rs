@@ -921,8 +921,6 @@ fn normalize(a: [f32; 3]) -> [f32; 3] {
     }
 }
 
-/// Whether a setting is 0, its "off" value: such a field is left out of a written config, so
-/// that files written before the field existed and files written now read alike.
-pub(crate) fn is_zero(v: &f64) -> bool {
+fn is_zero(v: &f64) -> bool {
     *v == 0.0
 }

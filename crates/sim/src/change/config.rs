@@ -196,7 +196,7 @@ pub struct ScopeChange {
     /// With the sub-frames: the camera's travel during a test frame's exposure, mm (the render
     /// setting `motion_blur_mm`; 0: over the map pass's shutter, a fraction of the frame
     /// interval).
-    #[serde(skip_serializing_if = "crate::render::is_zero")]
+    #[serde(skip_serializing_if = "is_zero")]
     pub motion_blur_mm: f64,
     /// Defocus: standard deviation of a Gaussian blur of the test frames, pixels (0 = none).
     pub defocus_px: f64,
@@ -479,6 +479,10 @@ impl ChangeConfig {
         )?;
         Ok(())
     }
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 #[cfg(test)]
