@@ -310,6 +310,7 @@ def localize(
     max_rms_px: float = ...,
     max_jump_mm: float = ...,
     polish_px: float = ...,
+    wall_motion_mm: float = ...,
     colon_scale: float = ...,
     strict: bool = ...,
     force: bool = ...,
@@ -378,6 +379,9 @@ def localize(
     - ``max_jump_mm``: Validity: largest jump from the prior, mm.
     - ``polish_px``: Scale of the Cauchy kernel of the final polish on the inliers, pixels
       (0: least squares).
+    - ``wall_motion_mm``: How far the colon wall may have moved since the mapping pass
+      (standard deviation, mm): each map point's reprojection tolerance widens by
+      √(1 + (f·σ/z)²) at depth z, near points most; 0: a rigid colon.
     - ``colon_scale``: Refine each refined pose with the colon's scale about its mid-line
       (a pass insufflated differently from the mapping pass): the scale prior's standard
       deviation around 1 (0.15: about ±15 %); 0: rigid poses, as in the paper.

@@ -216,6 +216,7 @@ class Localizer:
         max_rms_px: float = ...,
         max_jump_mm: float = ...,
         polish_px: float = ...,
+        wall_motion_mm: float = ...,
         colon_scale: float = ...,
     ) -> None: ...
     def localize(self, image: Image) -> FrameResult:

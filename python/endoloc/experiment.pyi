@@ -88,6 +88,7 @@ def changes(
     index_zoom_blur: str | None = ...,
     index_view_penalty: float | None = ...,
     keep_data: bool = ...,
+    wall_motion_mm: float = ...,
     colon: str | None = ...,
     print_jobs: bool = ...,
     merge: bool = ...,
@@ -123,6 +124,10 @@ def changes(
     - ``index_view_penalty``: With ``index_zoom_blur``: `endoloc.train`'s
       ``index_view_penalty`` (default 0).
     - ``keep_data``: Keep each condition's dataset (deleted once its figures are written).
+    - ``wall_motion_mm``: How far the colon wall may have moved since the mapping pass, mm
+      (`endoloc.localize`'s ``wall_motion_mm``; 0: a rigid colon); a folder's finished
+      conditions keep the value they were localized with: another value needs another
+      ``out``.
     - ``colon``: Run only this colon (`seed-N` or `ct-<folder>`).
     - ``print_jobs``: Print one command per colon and the merge command, and stop.
     - ``merge``: Run nothing: write the tables from the finished conditions.
@@ -143,6 +148,7 @@ def compare(
     smoothed_level: float | None = ...,
     model: StrPath | None = ...,
     methods: Seq[str] = ...,
+    wall_motion_mm: float = ...,
     force: bool = ...,
     progress: ProgressArg = None,
 ) -> Report:
@@ -165,6 +171,8 @@ def compare(
     - ``model``: Use this trained Siamese model (with or without a map) instead of
       training one.
     - ``methods``: Methods to run (default: all).
+    - ``wall_motion_mm``: How far the colon wall may have moved since the mapping pass, mm
+      (`endoloc.localize`'s ``wall_motion_mm``; 0: a rigid colon).
     - ``force``: Use an output folder that holds something else.
     """
     ...

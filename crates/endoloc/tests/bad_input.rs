@@ -397,6 +397,15 @@ fn catalogue() -> Vec<Case> {
             },
         ),
         case(
+            "negative wall motion (localize)",
+            &["--wall-motion-mm -1 mm", "expected a finite value ≥ 0"],
+            |fx, d| {
+                let mut a = localize(&fx.model, &fx.data.join("test"), d);
+                a.push("--wall-motion-mm=-1".into());
+                a
+            },
+        ),
+        case(
             "image that is not an image (features)",
             &["notes.png"],
             |_, d| {

@@ -386,6 +386,12 @@ pub struct ChangesJob {
     /// a condition of the `small` preset takes about 50 MB).
     #[cfg_attr(feature = "cli", arg(long))]
     pub keep_data: bool,
+    /// How far the colon wall may have moved since the mapping pass, mm (the localize job's
+    /// `wall_motion_mm`; 0: a rigid colon). A folder's
+    /// conditions already finished were localized with its `changes.toml`'s value: another
+    /// value needs another folder.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ChangesJob::default().wall_motion_mm))]
+    pub wall_motion_mm: f64,
     /// Run only this colon (`seed-N` or `ct-<folder>`, as printed with `print_jobs`); the
     /// tables are not written.
     #[cfg_attr(feature = "cli", arg(long))]
@@ -420,6 +426,7 @@ impl Default for ChangesJob {
             index_zoom_blur: None,
             index_view_penalty: None,
             keep_data: false,
+            wall_motion_mm: 0.0,
             colon: None,
             print_jobs: false,
             merge: false,
@@ -635,11 +642,35 @@ impl ChangesJob {
         if self.keep_data {
             c.push_str(" --keep-data");
         }
+        if self.wall_motion_mm != 0.0 {
+            c.push_str(&format!(" --wall-motion-mm {}", self.wall_motion_mm));
+        }
         match colon {
             Some(name) => c.push_str(&format!(" --colon {}", shell_quote(name))),
             None => c.push_str(" --merge"),
         }
         c
+    }
+
+    /// Refuses a `wall_motion_mm` other than the one the folder's finished conditions were
+    /// localized with (its `changes.toml`): their rows are reused as they are.
+    fn check_wall_motion(&self) -> Result<()> {
+        let file = self.out.join("changes.toml");
+        let Ok(text) = std::fs::read_to_string(&file) else {
+            return Ok(());
+        };
+        let before: ChangesJob = toml::from_str(&text)
+            .with_context(|| format!("reading the study's settings in {}", file.display()))?;
+        if before.wall_motion_mm != self.wall_motion_mm {
+            bail!(
+                "{} was localized with --wall-motion-mm {}, not {}: its finished conditions \
+                 would be reused as they are; choose another --out",
+                self.out.display(),
+                before.wall_motion_mm,
+                self.wall_motion_mm
+            );
+        }
+        Ok(())
     }
 
     /// Runs the study (or one colon of it, or only the merge).
@@ -670,6 +701,7 @@ impl ChangesJob {
                 .map(|c| self.out.join("colons").join(&c.name).join("model")),
         )?;
         common::prepare_out(&self.out, "changes.toml", self.force)?;
+        self.check_wall_motion()?;
         common::create_out(&self.out, "changes.toml")?;
         let saved = ChangesJob {
             colon: None,
@@ -805,6 +837,7 @@ impl ChangesJob {
                 model: Some(model.clone()),
                 methods: vec![LIVE, PER_FRAME],
                 smoothed_level_px: self.smoothed_level_px,
+                wall_motion_mm: self.wall_motion_mm,
                 force: true,
                 ..Default::default()
             }

@@ -445,6 +445,8 @@ pub(super) struct EndolocRun {
     pub choice: ZoneChoice,
     pub candidate_zones: usize,
     pub confirm: bool,
+    /// [`endoloc_geometry::RefineConfig::wall_motion_mm`].
+    pub wall_motion_mm: f64,
 }
 
 /// Runs our method on cached features and predictions: zone → median pose → matching →
@@ -461,6 +463,7 @@ pub(super) fn run_endoloc(
         choice,
         candidate_zones,
         confirm,
+        wall_motion_mm,
     } = run;
     let classifier = ZoneClassifier::load(model)
         .with_context(|| format!("loading model {}", model.display()))?;
@@ -476,6 +479,8 @@ pub(super) fn run_endoloc(
         retry_threshold: Some(features.retry_surf.as_ref().map_or(0.0, |s| s.threshold)),
         ..LocalizerConfig::default()
     };
+    let mut cfg = cfg;
+    cfg.localize.refine.wall_motion_mm = wall_motion_mm;
     let localizer =
         Localizer::new(classifier, map, cfg)?.with_smoothed_level(load_smoothed_level(model)?)?;
     let localizer = match features.camera {

@@ -54,6 +54,10 @@ pub struct CompareJob {
     /// localize job's defaults; endoloc and endoloc-live localize without confirmation.
     #[cfg_attr(feature = "cli", arg(long, value_delimiter = ','))]
     pub methods: Vec<Method>,
+    /// How far the colon wall may have moved since the mapping pass, mm (the localize job's
+    /// `wall_motion_mm`; 0: a rigid colon).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CompareJob::default().wall_motion_mm))]
+    pub wall_motion_mm: f64,
     /// Use an output folder that holds something else.
     #[cfg_attr(feature = "cli", arg(long))]
     pub force: bool,
@@ -71,6 +75,7 @@ impl Default for CompareJob {
             smoothed_level_px: None,
             model: None,
             methods: Vec::new(),
+            wall_motion_mm: 0.0,
             force: false,
         }
     }
@@ -273,6 +278,7 @@ impl CompareJob {
             features: None,
             epochs: args.epochs,
             seed: args.seed,
+            wall_motion_mm: args.wall_motion_mm,
             progress,
         };
         let mut rows = Vec::new();
@@ -317,6 +323,7 @@ struct Ctx<'a> {
     features: Option<FeatureCache>,
     epochs: Option<usize>,
     seed: u64,
+    wall_motion_mm: f64,
     progress: &'a dyn Progress,
 }
 
@@ -331,10 +338,12 @@ impl Ctx<'_> {
 
     fn run(&mut self, m: Method) -> Result<MethodOutput> {
         let progress = self.progress;
+        let wall_motion_mm = self.wall_motion_mm;
         let ours = |choice, candidate_zones, confirm| EndolocRun {
             choice,
             candidate_zones,
             confirm,
+            wall_motion_mm,
         };
         let setting = match m {
             Method::EndolocPaper => Some(ours(ZoneChoice::PerFrame, 1, false)),

@@ -162,6 +162,7 @@ impl ExpertJob {
                     choice: ZoneChoice::PerFrame,
                     candidate_zones: 3,
                     confirm: false,
+                    wall_motion_mm: 0.0,
                 },
                 progress,
             )?;

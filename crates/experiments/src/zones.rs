@@ -441,6 +441,7 @@ impl ZoneSweepJob {
                 choice: ZoneChoice::PerFrame,
                 candidate_zones: args.candidate_zones,
                 confirm: false,
+                wall_motion_mm: 0.0,
             },
             progress,
         )?;

@@ -32,7 +32,7 @@ pub use essential::{
     EssentialError, EssentialEstimate, EssentialRansacConfig, RecoveredPose, RelativePose,
     five_point, ransac_essential, ransac_essential_normalized, recover_pose, refine_relative_pose,
 };
-pub use pnp::{RansacConfig, RansacError, RansacPose, ransac_pnp};
+pub use pnp::{RansacConfig, RansacError, RansacPose, ransac_pnp, ransac_pnp_tolerant};
 pub use polyline::{Nearest, Polyline};
 pub use pose::{
     Pose, canonical_quaternion, orientation_error_deg, pose_from_matrix, position_error_mm,

@@ -126,6 +126,18 @@ pub struct RefineConfig {
     /// Reject as degenerate when the smallest eigenvalue of the Jacobi-scaled normal matrix is
     /// below this (collinear points, a single point cluster; dimensionless, in `(0, 1]`).
     pub min_normalized_eigenvalue: f64,
+    /// How far the colon wall may have moved since the map was built (standard deviation,
+    /// mm): each residual is divided by [`reprojection::wall_motion_scale`] at the point's
+    /// depth before the kernel, the inlier test and the RMS, so every pixel figure here
+    /// (`kernel`, `inlier_threshold_px`, `polish_kernel`, the RMS) is in pixels of a point the
+    /// wall did not move, and a near point may lie farther from its projection than a far
+    /// one. 0 (default): a rigid colon, residuals in plain pixels.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub wall_motion_mm: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Default for RefineConfig {
@@ -141,6 +153,7 @@ impl Default for RefineConfig {
             polish_kernel: RobustKernel::Cauchy { scale_px: 1.0 },
             min_depth_mm: 1e-3,
             min_normalized_eigenvalue: 1e-10,
+            wall_motion_mm: 0.0,
         }
     }
 }
@@ -157,8 +170,9 @@ pub struct PoseEstimate {
     pub t_wc: Pose,
     /// Final robust cost `Σ ρ(eᵢ)` over all correspondences with the main kernel, px².
     pub cost: f64,
-    /// Root-mean-square reprojection error over the inliers (true camera model), pixels;
-    /// `NaN` when there are no inliers.
+    /// Root-mean-square reprojection error over the inliers (true camera model), pixels —
+    /// each divided by its point's [`reprojection::wall_motion_scale`] when
+    /// [`RefineConfig::wall_motion_mm`] is on; `NaN` when there are no inliers.
     pub rms_px: f64,
     /// Per correspondence: in front of the camera and reprojected within
     /// `inlier_threshold_px`.
@@ -252,6 +266,8 @@ struct Problem<'a> {
     fx: f64,
     fy: f64,
     min_depth_mm: f64,
+    /// [`RefineConfig::wall_motion_mm`].
+    wall_motion_mm: f64,
 }
 
 impl Problem<'_> {
@@ -283,8 +299,15 @@ impl Problem<'_> {
                 cost += kernel.cost(BEHIND_PENALTY_PX);
                 continue;
             };
-            let e = t.residual.norm();
-            let w = kernel.weight(e);
+            // Residual and Jacobian divided by the point's tolerance (1 for a rigid colon).
+            let scale = if self.wall_motion_mm > 0.0 {
+                let z = r_cw.row(2).dot(&p_w.coords.transpose()) + t_cw.z;
+                1.0 / reprojection::wall_motion_scale(self.fx, z, self.wall_motion_mm)
+            } else {
+                1.0
+            };
+            let e = scale * t.residual.norm();
+            let w = kernel.weight(e) * scale * scale;
             cost += kernel.cost(e);
             // Upper triangle of the rank-2 update w·JᵀJ (mirrored once after the loop).
             let j = &t.d_pose;
@@ -392,6 +415,7 @@ pub fn refine_pose(
         fx: camera.fx,
         fy: camera.fy,
         min_depth_mm: cfg.min_depth_mm,
+        wall_motion_mm: cfg.wall_motion_mm,
     };
     let start = problem.linearize(prior, &RobustKernel::None, None);
     if start.used < 3 {
@@ -455,7 +479,7 @@ pub fn refine_pose(
         .zip(&inliers)
         .filter(|(_, b)| **b)
     {
-        if let Some(e) = reprojection_error_px(&t_wc, p, px, camera) {
+        if let Some(e) = tolerant_error_px(&t_wc, p, px, camera, cfg.wall_motion_mm) {
             sum_sq += e * e;
         }
     }
@@ -543,6 +567,20 @@ pub fn reprojection_error_px(
     camera.project(&p_c).map(|q| (q - pixel).norm())
 }
 
+/// [`reprojection_error_px`] divided by the point's [`reprojection::wall_motion_scale`].
+fn tolerant_error_px(
+    t_wc: &Pose,
+    p_world: &Point3<f64>,
+    pixel: &Point2<f64>,
+    camera: &Camera,
+    wall_motion_mm: f64,
+) -> Option<f64> {
+    let p_c = t_wc.inverse_transform_point(p_world);
+    camera.project(&p_c).map(|q| {
+        (q - pixel).norm() / reprojection::wall_motion_scale(camera.fx, p_c.z, wall_motion_mm)
+    })
+}
+
 fn inlier_mask(
     t_wc: &Pose,
     points: &[Point3<f64>],
@@ -555,7 +593,7 @@ fn inlier_mask(
         .zip(pixels)
         .map(|(p, px)| {
             t_wc.inverse_transform_point(p).z > cfg.min_depth_mm
-                && reprojection_error_px(t_wc, p, px, camera)
+                && tolerant_error_px(t_wc, p, px, camera, cfg.wall_motion_mm)
                     .is_some_and(|e| e < cfg.inlier_threshold_px)
         })
         .collect()

@@ -5,7 +5,8 @@
 //! 2. Gauss-Newton ([`refine_pose`]) from the prior (the zone median).
 //! 3. If that failed, did not converge, kept less than `ransac_below_inlier_ratio` of the
 //!    correspondences as inliers, or its RMS is above the validity limit — or when
-//!    `always_ransac` is set — [`ransac_pnp`] runs and its pose seeds a second Gauss-Newton.
+//!    `always_ransac` is set — [`ransac_pnp`](crate::ransac_pnp) runs (with the refinement's
+//!    [`RefineConfig::wall_motion_mm`]) and its pose seeds a second Gauss-Newton.
 //!    The better of the two (more inliers, then lower robust cost) is kept.
 //! 4. [`ValidityConfig::check`] classifies the result; on a local failure with
 //!    `fallback_to_prior` the prior is reported as `init_only`.
@@ -15,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::camera::Camera;
-use crate::pnp::{RansacConfig, RansacError, ransac_pnp};
+use crate::pnp::{RansacConfig, RansacError, ransac_pnp_tolerant};
 use crate::pose::Pose;
 use crate::refine_pose::{PoseEstimate, RefineConfig, refine_pose};
 use crate::validity::{Reason, Status, ValidityConfig, Verdict};
@@ -166,7 +167,13 @@ pub fn localize_pose(
     let mut no_consensus: Option<(usize, usize)> = None;
     if !prior_good || cfg.always_ransac {
         used_ransac = true;
-        match ransac_pnp(points_world, pixels, camera, &cfg.ransac) {
+        match ransac_pnp_tolerant(
+            points_world,
+            pixels,
+            camera,
+            &cfg.ransac,
+            cfg.refine.wall_motion_mm,
+        ) {
             Ok(r) => match refine_pose(&r.t_wc, points_world, pixels, camera, &cfg.refine) {
                 Ok(e) => {
                     if best.as_ref().is_none_or(|b| better(&e, b)) {

@@ -103,6 +103,26 @@ pub fn term(
     })
 }
 
+/// How many times wider a map point's reprojection tolerance is when the colon wall may
+/// have moved since the point was mapped (deformation, insufflation): `√(1 + (f·σ/z)²)` for a
+/// wall displacement of standard deviation `wall_motion_mm` (σ, mm) seen at depth `depth_mm`
+/// (z, mm) by a camera of focal length `focal_px` (f, pixels) — such a displacement moves the
+/// image point by about `f·σ/z` pixels, on top of the one pixel of image noise that every
+/// pixel threshold is set for. 1 when `wall_motion_mm` is 0: a rigid colon.
+///
+/// Registration divides each residual by it ([`crate::RefineConfig::wall_motion_mm`]): near
+/// points, whose image moves most when the wall does, are trusted less and kept as inliers
+/// farther from their projection; far points keep almost their rigid tolerance.
+#[inline]
+pub fn wall_motion_scale(focal_px: f64, depth_mm: f64, wall_motion_mm: f64) -> f64 {
+    if wall_motion_mm > 0.0 && depth_mm > 0.0 {
+        let px = focal_px * wall_motion_mm / depth_mm;
+        (1.0 + px * px).sqrt()
+    } else {
+        1.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

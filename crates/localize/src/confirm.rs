@@ -318,8 +318,8 @@ fn confirm_from(
             candidates,
             camera,
             &pose,
-            radius,
-            registration.refine.min_depth_mm,
+            crate::guided::Window::rigid(radius, registration.refine.min_depth_mm)
+                .with_wall_motion(registration.refine.wall_motion_mm),
             matcher,
         );
         let (points, pixels) = correspondences(&matches, features, candidates);

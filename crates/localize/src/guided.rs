@@ -11,25 +11,61 @@
 //! less work.
 
 use endoloc_features::{Describe, Feature, Match, MatcherConfig};
+use endoloc_geometry::reprojection::wall_motion_scale;
 use endoloc_geometry::{Camera, Pose};
 
 use crate::map_point::MapPoint;
 
+/// Where a map point looks for its feature: within a window about its projection.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window {
+    /// The window's radius, pixels, for a point the wall did not move.
+    pub radius_px: f64,
+    /// Points closer to the camera than this (depth, mm) are skipped.
+    pub min_depth_mm: f64,
+    /// How far the wall may have moved since the map was built (standard deviation, mm): a
+    /// point's window is `radius_px` times its
+    /// [`wall_motion_scale`](endoloc_geometry::reprojection::wall_motion_scale) at its depth
+    /// ([`RefineConfig::wall_motion_mm`](endoloc_geometry::RefineConfig::wall_motion_mm)).
+    /// 0: every window `radius_px` wide.
+    pub wall_motion_mm: f64,
+}
+
+impl Window {
+    /// A window of `radius_px` for every point deeper than `min_depth_mm`: a rigid wall.
+    pub fn rigid(radius_px: f64, min_depth_mm: f64) -> Self {
+        Window {
+            radius_px,
+            min_depth_mm,
+            wall_motion_mm: 0.0,
+        }
+    }
+
+    /// This window widened for near points when the wall may have moved by `wall_motion_mm`.
+    pub fn with_wall_motion(mut self, wall_motion_mm: f64) -> Self {
+        self.wall_motion_mm = wall_motion_mm;
+        self
+    }
+}
+
 /// Matches `features` (query) to `points` (train) whose projection with `t_wc` (camera-to-world,
-/// mm) lies within `radius_px` pixels of the feature; sorted by query index. Points behind the
-/// camera (closer than `min_depth_mm`) are skipped.
+/// mm) lies within the [`Window`] of the feature; sorted by query index.
 pub fn match_guided(
     features: &[Feature],
     points: &[&MapPoint],
     camera: &Camera,
     t_wc: &Pose,
-    radius_px: f64,
-    min_depth_mm: f64,
+    window: Window,
     cfg: &MatcherConfig,
 ) -> Vec<Match> {
     if features.is_empty() || points.is_empty() {
         return Vec::new();
     }
+    let Window {
+        radius_px,
+        min_depth_mm,
+        wall_motion_mm,
+    } = window;
     // Features bucketed on a grid of cells `radius_px` wide (at least 8 px, so that small
     // windows do not make a huge grid), stored as one index array sorted by cell.
     let cell = radius_px.max(8.0);
@@ -67,7 +103,6 @@ pub fn match_guided(
         }
     }
     let t_cw = t_wc.inverse();
-    let r2 = radius_px * radius_px;
     // A pair farther apart than `max_distance / ratio` can neither be accepted nor fail a
     // feature's ratio test (its best is within `max_distance`), nor beat an accepted match in
     // the mutual check: it is skipped as soon as a partial sum exceeds that bound. The slack
@@ -92,6 +127,8 @@ pub fn match_guided(
         let Some(px) = camera.project(&pc) else {
             continue;
         };
+        let radius_px = radius_px * wall_motion_scale(camera.fx, pc.z, wall_motion_mm);
+        let r2 = radius_px * radius_px;
         let (lo_x, lo_y) = ((px.x - radius_px).max(0.0), (px.y - radius_px).max(0.0));
         let Some((c0, r0)) = cell_of(lo_x, lo_y) else {
             continue;
@@ -367,7 +404,14 @@ mod tests {
                 ..MatcherConfig::default()
             };
             let full = reference(&features, &pts, &camera, 6.0, &cfg);
-            let pruned = match_guided(&features, &pts, &camera, &pose, 6.0, 1.0, &cfg);
+            let pruned = match_guided(
+                &features,
+                &pts,
+                &camera,
+                &pose,
+                Window::rigid(6.0, 1.0),
+                &cfg,
+            );
             let pairs = |m: &[Match]| -> Vec<(usize, usize)> {
                 m.iter().map(|m| (m.query, m.train)).collect()
             };
@@ -402,14 +446,59 @@ mod tests {
         ];
         let pts = [&a, &b];
         let cfg = MatcherConfig::default();
-        let m = match_guided(&features, &pts, &camera, &pose, 10.0, 1.0, &cfg);
+        let m = match_guided(
+            &features,
+            &pts,
+            &camera,
+            &pose,
+            Window::rigid(10.0, 1.0),
+            &cfg,
+        );
         assert_eq!(m.len(), 2);
         assert_eq!((m[0].query, m[0].train), (0, 0));
         assert_eq!((m[1].query, m[1].train), (1, 1));
         // A point behind the camera, or projected beyond the radius, matches nothing.
         let behind = point([0.0, 0.0, -50.0], [1.0, 0.0]);
         let far = [feature(pa.x as f32 + 30.0, pa.y as f32, [1.0, 0.0])];
-        assert!(match_guided(&far, &[&a], &camera, &pose, 10.0, 1.0, &cfg).is_empty());
-        assert!(match_guided(&features, &[&behind], &camera, &pose, 10.0, 1.0, &cfg).is_empty());
+        assert!(
+            match_guided(&far, &[&a], &camera, &pose, Window::rigid(10.0, 1.0), &cfg).is_empty()
+        );
+        assert!(
+            match_guided(
+                &features,
+                &[&behind],
+                &camera,
+                &pose,
+                Window::rigid(10.0, 1.0),
+                &cfg
+            )
+            .is_empty()
+        );
+    }
+
+    /// With wall motion, a near point's window widens (f·σ/z pixels of wall motion at its
+    /// depth), a far point's hardly: a feature 20 px from a point 20 mm deep is found with a
+    /// wall moved by 1 mm (f = 100 px: 5 px of motion, a window 10 · √26 ≈ 51 px wide), the
+    /// same offset from a point 400 mm deep is not (0.25 px: 10.3 px).
+    #[test]
+    fn wall_motion_widens_the_windows_of_near_points() {
+        let camera = Camera::from_hfov(200, 200, 90.0);
+        let pose = Pose::identity();
+        let cfg = MatcherConfig::default();
+        for (depth, found) in [(20.0, true), (400.0, false)] {
+            let p = point([0.0, 0.0, depth], [1.0, 0.0]);
+            let px = camera.project(&p.p_world).unwrap();
+            let features = [feature(px.x as f32 + 20.0, px.y as f32, [1.0, 0.0])];
+            let window = Window::rigid(10.0, 1.0);
+            let rigid = match_guided(&features, &[&p], &camera, &pose, window, &cfg);
+            let moved = window.with_wall_motion(1.0);
+            let tolerant = match_guided(&features, &[&p], &camera, &pose, moved, &cfg);
+            assert!(rigid.is_empty(), "{depth} mm: {rigid:?}");
+            assert_eq!(
+                tolerant.len(),
+                usize::from(found),
+                "{depth} mm: {tolerant:?}"
+            );
+        }
     }
 }

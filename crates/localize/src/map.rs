@@ -422,8 +422,7 @@ fn extend_observations(
             &refs,
             camera,
             &train.poses[f].pose,
-            cfg.observation_radius_px,
-            cfg.triangulation.min_depth_mm,
+            crate::guided::Window::rigid(cfg.observation_radius_px, cfg.triangulation.min_depth_mm),
             &cfg.matcher,
         );
         for m in matches {

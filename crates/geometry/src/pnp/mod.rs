@@ -5,4 +5,4 @@ pub mod p3p;
 pub mod ransac;
 
 pub use p3p::p3p;
-pub use ransac::{RansacConfig, RansacError, RansacPose, ransac_pnp};
+pub use ransac::{RansacConfig, RansacError, RansacPose, ransac_pnp, ransac_pnp_tolerant};

@@ -110,6 +110,23 @@ pub fn ransac_pnp(
     camera: &Camera,
     cfg: &RansacConfig,
 ) -> Result<RansacPose, RansacError> {
+    ransac_pnp_tolerant(points_world, pixels, camera, cfg, 0.0)
+}
+
+/// [`ransac_pnp`] for a wall that may have moved by `wall_motion_mm` (standard deviation, mm)
+/// since it was mapped: each reprojection error is divided by
+/// [`reprojection::wall_motion_scale`] at the point's depth in the hypothesis before the
+/// MSAC score and the inlier test ([`crate::RefineConfig::wall_motion_mm`]). 0 = [`ransac_pnp`].
+///
+/// # Errors
+/// As [`ransac_pnp`].
+pub fn ransac_pnp_tolerant(
+    points_world: &[Point3<f64>],
+    pixels: &[Point2<f64>],
+    camera: &Camera,
+    cfg: &RansacConfig,
+    wall_motion_mm: f64,
+) -> Result<RansacPose, RansacError> {
     if points_world.len() != pixels.len() {
         return Err(RansacError::LengthMismatch {
             points: points_world.len(),
@@ -138,22 +155,33 @@ pub fn ransac_pnp(
     let (fx, fy) = (camera.fx, camera.fy);
     let tau2 = cfg.threshold_px * cfg.threshold_px;
     let min_depth = 1e-6;
+    // Squared reprojection error of correspondence `i`, divided by its tolerance.
+    let error2 = |r_cw: &Matrix3<f64>, t_cw: &Vector3<f64>, i: usize| -> Option<f64> {
+        let r = reprojection::residual(
+            r_cw,
+            t_cw,
+            &points_world[i],
+            &normalized[i],
+            fx,
+            fy,
+            min_depth,
+        )?;
+        let e2 = r.norm_squared();
+        if wall_motion_mm > 0.0 {
+            let z = r_cw.row(2).dot(&points_world[i].coords.transpose()) + t_cw.z;
+            let s = reprojection::wall_motion_scale(fx, z, wall_motion_mm);
+            Some(e2 / (s * s))
+        } else {
+            Some(e2)
+        }
+    };
     // MSAC score of a pose, abandoning once it exceeds `limit`.
     let score = |t_wc: &Pose, limit: f64| -> f64 {
         let r_cw: Matrix3<f64> = t_wc.rotation.to_rotation_matrix().into_inner().transpose();
         let t_cw = -(r_cw * t_wc.translation.vector);
         let mut s = 0.0;
         for &i in &usable {
-            let e2 = reprojection::residual(
-                &r_cw,
-                &t_cw,
-                &points_world[i],
-                &normalized[i],
-                fx,
-                fy,
-                min_depth,
-            )
-            .map_or(tau2, |r| r.norm_squared().min(tau2));
+            let e2 = error2(&r_cw, &t_cw, i).map_or(tau2, |e2| e2.min(tau2));
             s += e2;
             if s > limit {
                 return f64::INFINITY;
@@ -166,18 +194,7 @@ pub fn ransac_pnp(
         let t_cw = -(r_cw * t_wc.translation.vector);
         usable
             .iter()
-            .filter(|&&i| {
-                reprojection::residual(
-                    &r_cw,
-                    &t_cw,
-                    &points_world[i],
-                    &normalized[i],
-                    fx,
-                    fy,
-                    min_depth,
-                )
-                .is_some_and(|r| r.norm_squared() < tau2)
-            })
+            .filter(|&&i| error2(&r_cw, &t_cw, i).is_some_and(|e2| e2 < tau2))
             .count()
     };
 
@@ -253,14 +270,8 @@ pub fn ransac_pnp(
     }
     let r_cw: Matrix3<f64> = t_wc.rotation.to_rotation_matrix().into_inner().transpose();
     let t_cw = -(r_cw * t_wc.translation.vector);
-    let inliers: Vec<bool> = points_world
-        .iter()
-        .zip(&normalized)
-        .map(|(p, xn)| {
-            !xn.x.is_nan()
-                && reprojection::residual(&r_cw, &t_cw, p, xn, fx, fy, min_depth)
-                    .is_some_and(|r| r.norm_squared() < tau2)
-        })
+    let inliers: Vec<bool> = (0..points_world.len())
+        .map(|i| !normalized[i].x.is_nan() && error2(&r_cw, &t_cw, i).is_some_and(|e2| e2 < tau2))
         .collect();
     Ok(RansacPose {
         t_wc,

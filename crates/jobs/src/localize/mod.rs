@@ -246,6 +246,13 @@ pub struct LocalizeJob {
     /// ignores those. 0: least squares on the inliers.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().polish_px))]
     pub polish_px: f64,
+    /// How far the colon wall may have moved since the mapping pass (standard deviation, mm):
+    /// deformation, a shifted segment, another insufflation. Such a move shifts a map point's
+    /// image by about f·σ/z pixels at depth z, so each point's reprojection tolerance in
+    /// RANSAC, the refinement and the confirming windows widens by √(1 + (f·σ/z)²): near
+    /// points may lie farther from their projection than far ones. 0: a rigid colon.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().wall_motion_mm))]
+    pub wall_motion_mm: f64,
     /// Refine each `refined` pose once more with the colon's scale about its mid-line (the
     /// training pass's camera path): a colon insufflated more or less than when it was mapped
     /// is the mapped colon scaled about its mid-line, and a rigid pose fitted to it lands
@@ -305,6 +312,7 @@ impl Default for LocalizeJob {
                 RobustKernel::Cauchy { scale_px } | RobustKernel::Huber { scale_px } => scale_px,
                 RobustKernel::None => 0.0,
             },
+            wall_motion_mm: cfg.localize.refine.wall_motion_mm,
             colon_scale: cfg.colon_scale.map_or(0.0, |c| c.fit.prior_sigma),
             strict: false,
             force: false,
@@ -390,6 +398,7 @@ impl LocalizeJob {
             c.fit.prior_sigma = self.colon_scale;
             c
         });
+        cfg.localize.refine.wall_motion_mm = self.wall_motion_mm;
         cfg.localize.refine.polish_kernel = if self.polish_px == 0.0 {
             RobustKernel::None
         } else {

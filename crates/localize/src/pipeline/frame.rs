@@ -126,6 +126,12 @@ impl Localizer {
                 )));
             }
         }
+        let wall = refine.wall_motion_mm;
+        if !(wall.is_finite() && wall >= 0.0) {
+            return Err(LocalizeError::Config(format!(
+                "`wall_motion_mm` {wall} mm; expected a finite value ≥ 0 (0 for a rigid colon)"
+            )));
+        }
         if !(cfg.uncertainty_scale.is_finite() && cfg.uncertainty_scale > 0.0) {
             return Err(LocalizeError::Config(format!(
                 "uncertainty_scale = {}; expected a finite value > 0",
@@ -354,6 +360,13 @@ impl Localizer {
     /// projected within that many pixels of a feature compete for it); brute force otherwise.
     /// With confirmation on, the registration is confirmed unless it is tracked from a
     /// prediction with [`ConfirmConfig::trust_tracked_inliers`].
+    ///
+    /// With [`RefineConfig::wall_motion_mm`](endoloc_geometry::RefineConfig::wall_motion_mm)
+    /// on, the frame is registered as to a rigid wall first, and only when that gives no
+    /// `refined` pose again with each map point's tolerance widened for wall motion: a
+    /// frame of an unchanged colon keeps its rigid registration (a wider tolerance also
+    /// lets more chance agreements count as inliers), a frame of a deformed one gets the
+    /// near points that a rigid registration drops. Both attempts' times count.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn register_from(
         &self,
@@ -363,7 +376,49 @@ impl Localizer {
         prior: &Pose,
         origin: Prior,
         zone_score: f32,
+        times: StageTimes,
+    ) -> Result<FrameResult, LocalizeError> {
+        let tolerant = &self.cfg.localize;
+        if tolerant.refine.wall_motion_mm == 0.0 {
+            return self.register_with(
+                map, features, zone, prior, origin, zone_score, times, tolerant,
+            );
+        }
+        let mut rigid = *tolerant;
+        rigid.refine.wall_motion_mm = 0.0;
+        let first = self.register_with(
+            map, features, zone, prior, origin, zone_score, times, &rigid,
+        )?;
+        if first.status == Status::Refined {
+            return Ok(first);
+        }
+        let second = self.register_with(
+            map, features, zone, prior, origin, zone_score, times, tolerant,
+        )?;
+        let (a, b) = (first.times, second.times);
+        let mut kept = if second.status == Status::Refined {
+            second
+        } else {
+            first
+        };
+        kept.times.matching_ms = a.matching_ms + b.matching_ms;
+        kept.times.refine_ms = a.refine_ms + b.refine_ms;
+        Ok(kept)
+    }
+
+    /// [`Localizer::register_from`] with the registration settings `registration` (the
+    /// localizer's, or those of a rigid wall).
+    #[allow(clippy::too_many_arguments)]
+    fn register_with(
+        &self,
+        map: &Map,
+        features: &[endoloc_features::Feature],
+        zone: usize,
+        prior: &Pose,
+        origin: Prior,
+        zone_score: f32,
         mut times: StageTimes,
+        registration: &endoloc_geometry::RegistrationConfig,
     ) -> Result<FrameResult, LocalizeError> {
         let prior = *prior;
         let t = Instant::now();
@@ -385,8 +440,8 @@ impl Localizer {
                 &candidates,
                 &self.camera,
                 &prior,
-                radius,
-                self.cfg.localize.refine.min_depth_mm,
+                crate::guided::Window::rigid(radius, self.cfg.localize.refine.min_depth_mm)
+                    .with_wall_motion(registration.refine.wall_motion_mm),
                 &self.cfg.matcher,
             )
         } else {
@@ -396,7 +451,7 @@ impl Localizer {
 
         let t = Instant::now();
         let (points, pixels) = crate::map::correspondences(&matches, features, &candidates);
-        let result = localize_pose(&prior, &points, &pixels, &self.camera, &self.cfg.localize)
+        let result = localize_pose(&prior, &points, &pixels, &self.camera, registration)
             .map_err(|e| LocalizeError::Config(format!("pose refinement input: {e}")))?;
         times.refine_ms = ms(t);
         let (inliers, rms) = result
@@ -432,7 +487,7 @@ impl Localizer {
                 near,
                 &t_wc,
                 &self.cfg.matcher,
-                &self.cfg.localize,
+                registration,
                 &self.cfg.confirm,
             );
             times.refine_ms += ms(t);
