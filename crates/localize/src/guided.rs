@@ -24,8 +24,7 @@ pub struct Window {
     /// Points closer to the camera than this (depth, mm) are skipped.
     pub min_depth_mm: f64,
     /// How far the wall may have moved since the map was built (standard deviation, mm): a
-    /// point's window is `radius_px` times its
-    /// [`wall_motion_scale`](endoloc_geometry::reprojection::wall_motion_scale) at its depth
+    /// point's window is `radius_px` times its [`wall_motion_scale`] at its depth
     /// ([`RefineConfig::wall_motion_mm`](endoloc_geometry::RefineConfig::wall_motion_mm)).
     /// 0: every window `radius_px` wide.
     pub wall_motion_mm: f64,
