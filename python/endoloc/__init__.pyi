@@ -381,7 +381,8 @@ def localize(
       (0: least squares).
     - ``wall_motion_mm``: How far the colon wall may have moved since the mapping pass
       (standard deviation, mm): each map point's reprojection tolerance widens by
-      √(1 + (f·σ/z)²) at depth z, near points most; 0: a rigid colon.
+      √(1 + (f·σ/z)²) at depth z, near points most, tried only on a frame that does not
+      register as a rigid wall; 0: a rigid colon.
     - ``colon_scale``: Refine each refined pose with the colon's scale about its mid-line
       (a pass insufflated differently from the mapping pass): the scale prior's standard
       deviation around 1 (0.15: about ±15 %); 0: rigid poses, as in the paper.

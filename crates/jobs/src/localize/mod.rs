@@ -250,7 +250,9 @@ pub struct LocalizeJob {
     /// deformation, a shifted segment, another insufflation. Such a move shifts a map point's
     /// image by about f·σ/z pixels at depth z, so each point's reprojection tolerance in
     /// RANSAC, the refinement and the confirming windows widens by √(1 + (f·σ/z)²): near
-    /// points may lie farther from their projection than far ones. 0: a rigid colon.
+    /// points may lie farther from their projection than far ones. Tried only on a frame that
+    /// does not register as a rigid wall (0.25 for a deformed pass; off by default, as it
+    /// also rescues a few wrong poses on an unchanged one). 0: a rigid colon.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().wall_motion_mm))]
     pub wall_motion_mm: f64,
     /// Refine each `refined` pose once more with the colon's scale about its mid-line (the
