@@ -284,6 +284,15 @@ fn legend<'a, 'b: 'a>(
     chart: &mut crate::plots::Chart<'a, 'b>,
     items: &[(&str, RGBColor)],
 ) -> Result<(), String> {
+    legend_at(chart, items, None)
+}
+
+/// [`legend`] at `position` (`None`: plotters' default place).
+fn legend_at<'a, 'b: 'a>(
+    chart: &mut crate::plots::Chart<'a, 'b>,
+    items: &[(&str, RGBColor)],
+    position: Option<SeriesLabelPosition>,
+) -> Result<(), String> {
     for &(name, color) in items {
         chart
             .draw_series(std::iter::once(Circle::new((f64::NAN, f64::NAN), 0, color)))
@@ -291,8 +300,11 @@ fn legend<'a, 'b: 'a>(
             .label(name)
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
     }
-    chart
-        .configure_series_labels()
+    let mut labels = chart.configure_series_labels();
+    if let Some(position) = position {
+        labels.position(position);
+    }
+    labels
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font(("sans-serif", 13))
@@ -695,24 +707,16 @@ pub fn plot_row_bars(
             }
         }
         if text && !series.is_empty() {
-            for (j, name) in series.iter().enumerate() {
-                let color = Palette99::pick(j).to_rgba();
-                chart
-                    .draw_series(std::iter::once(Circle::new((f64::NAN, f64::NAN), 0, color)))
-                    .map_err(|e| e.to_string())?
-                    .label(*name)
-                    .legend(move |(lx, ly)| {
-                        Rectangle::new([(lx, ly - 5), (lx + 12, ly + 5)], color.filled())
-                    });
-            }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 12))
-                .draw()
-                .map_err(|e| e.to_string())?;
+            let items: Vec<(&str, RGBColor)> = series
+                .iter()
+                .enumerate()
+                .map(|(j, name)| {
+                    let c = Palette99::pick(j).to_rgba();
+                    (*name, RGBColor(c.0, c.1, c.2))
+                })
+                .collect();
+            // Lower right, where the bars are shortest.
+            legend_at(&mut chart, &items, Some(SeriesLabelPosition::LowerRight))?;
         }
         Ok(())
     })

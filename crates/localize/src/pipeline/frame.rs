@@ -378,23 +378,29 @@ impl Localizer {
         zone_score: f32,
         times: StageTimes,
     ) -> Result<FrameResult, LocalizeError> {
+        let attempt = |registration: &endoloc_geometry::RegistrationConfig| {
+            self.register_with(
+                map,
+                features,
+                zone,
+                prior,
+                origin,
+                zone_score,
+                times,
+                registration,
+            )
+        };
         let tolerant = &self.cfg.localize;
         if tolerant.refine.wall_motion_mm == 0.0 {
-            return self.register_with(
-                map, features, zone, prior, origin, zone_score, times, tolerant,
-            );
+            return attempt(tolerant);
         }
         let mut rigid = *tolerant;
         rigid.refine.wall_motion_mm = 0.0;
-        let first = self.register_with(
-            map, features, zone, prior, origin, zone_score, times, &rigid,
-        )?;
+        let first = attempt(&rigid)?;
         if first.status == Status::Refined {
             return Ok(first);
         }
-        let second = self.register_with(
-            map, features, zone, prior, origin, zone_score, times, tolerant,
-        )?;
+        let second = attempt(tolerant)?;
         let (a, b) = (first.times, second.times);
         let mut kept = if second.status == Status::Refined {
             second
