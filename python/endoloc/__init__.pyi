@@ -311,6 +311,7 @@ def localize(
     max_jump_mm: float = ...,
     polish_px: float = ...,
     wall_motion_mm: float = ...,
+    keypoint_noise_px: float = ...,
     colon_scale: float = ...,
     strict: bool = ...,
     force: bool = ...,
@@ -383,6 +384,10 @@ def localize(
       (standard deviation, mm): each map point's reprojection tolerance widens by
       √(1 + (f·σ/z)²) at depth z, near points most, tried only on a frame that does not
       register as a rigid wall; 0: a rigid colon.
+    - ``keypoint_noise_px``: Keypoint noise of a registration to a wall that did not move,
+      pixels per axis (1σ): the stated uncertainty reads residuals beyond it as a wall that
+      moved since the mapping pass (correlated over 50 mm) and adds the pose error such a
+      motion causes; 0: residuals are independent noise only.
     - ``colon_scale``: Refine each refined pose with the colon's scale about its mid-line
       (a pass insufflated differently from the mapping pass): the scale prior's standard
       deviation around 1 (0.15: about ±15 %); 0: rigid poses, as in the paper.

@@ -217,6 +217,7 @@ class Localizer:
         max_jump_mm: float = ...,
         polish_px: float = ...,
         wall_motion_mm: float = ...,
+        keypoint_noise_px: float = ...,
         colon_scale: float = ...,
     ) -> None: ...
     def localize(self, image: Image) -> FrameResult:

@@ -406,6 +406,15 @@ fn catalogue() -> Vec<Case> {
             },
         ),
         case(
+            "negative keypoint noise (localize)",
+            &["--keypoint-noise-px -1 px", "expected a finite value ≥ 0"],
+            |fx, d| {
+                let mut a = localize(&fx.model, &fx.data.join("test"), d);
+                a.push("--keypoint-noise-px=-1".into());
+                a
+            },
+        ),
+        case(
             "image that is not an image (features)",
             &["notes.png"],
             |_, d| {

@@ -19,7 +19,7 @@
 //! | `source` | where the frame's pose comes from: `refined` (registered to the map), `predicted` (live motion model), `zone_median` (the zone's median training pose), `none` (no pose) |
 //! | `inliers` | inlier count of the pose refinement; empty when not attempted |
 //! | `reprojection_rms_px` | inlier reprojection RMS, pixels; empty when not available |
-//! | `position_std_mm` | standard deviation of the camera centre along its least certain direction, mm, from the Gauss-Newton covariance (calibrated: the 95 % bound is [`BOUND95_PER_STD`] × this); empty unless `refined` |
+//! | `position_std_mm` | standard deviation of the camera centre along its least certain direction, mm, from the registration's covariance with the wall-motion term (calibrated: the 95 % bound is [`BOUND95_PER_STD`] × this); empty unless `refined` |
 //! | `orientation_std_deg` | standard deviation of the orientation about its least certain axis, degrees (same calibration); empty unless `refined` |
 //! | `time_ms` | wall time spent on the frame, milliseconds |
 //!

@@ -507,6 +507,13 @@ pub struct ConditionSummary {
     pub frame_refined_median_mm: Option<Interval>,
     /// Per frame: refined frames more than 5 mm off, % of the refined ones.
     pub frame_wrong_pct: Option<Interval>,
+    /// Live: refined frames within their stated 95 % bound (1.96 × `position_std_mm`), % of
+    /// the refined ones.
+    #[serde(default)]
+    pub live_within_bound_pct: Option<Interval>,
+    /// Per frame: refined frames within their stated 95 % bound, % of the refined ones.
+    #[serde(default)]
+    pub frame_within_bound_pct: Option<Interval>,
 }
 
 /// What [`ChangesJob::run`] did.
@@ -1082,6 +1089,10 @@ fn summarise(c: &Condition, rows: &[ConditionRow]) -> ConditionSummary {
         (Some(w), Some(k)) if k > 0 => Some(100.0 * w as f64 / k as f64),
         _ => None,
     };
+    let within_pct = |r: &MethodRow| match (r.refined_within_bound, r.refined) {
+        (Some(w), Some(k)) if k > 0 => Some(100.0 * w as f64 / k as f64),
+        _ => None,
+    };
     ConditionSummary {
         condition: name.clone(),
         factor: c.factor,
@@ -1096,10 +1107,12 @@ fn summarise(c: &Condition, rows: &[ConditionRow]) -> ConditionSummary {
         frame_refined_pct: figure(PER_FRAME, &refined_pct),
         frame_refined_median_mm: figure(PER_FRAME, &|r| r.refined_median_position_mm),
         frame_wrong_pct: figure(PER_FRAME, &wrong_pct),
+        live_within_bound_pct: figure(LIVE, &within_pct),
+        frame_within_bound_pct: figure(PER_FRAME, &within_pct),
     }
 }
 
-const HEADER: [&str; 11] = [
+const HEADER: [&str; 13] = [
     "change",
     "severity",
     "colons",
@@ -1111,6 +1124,8 @@ const HEADER: [&str; 11] = [
     "per frame: refined (%)",
     "per frame: median pos of refined (mm)",
     "per frame: wrong (% of refined)",
+    "live: within the stated 95 % bound (% of refined)",
+    "per frame: within the stated 95 % bound (% of refined)",
 ];
 
 fn pm(i: &Option<Interval>, digits: usize) -> String {
@@ -1137,6 +1152,8 @@ fn summary_table(summary: &[ConditionSummary]) -> String {
             pm(&c.frame_refined_pct, 1),
             pm(&c.frame_refined_median_mm, 2),
             pm(&c.frame_wrong_pct, 1),
+            pm(&c.live_within_bound_pct, 1),
+            pm(&c.frame_within_bound_pct, 1),
         ];
         s.push_str(&format!("| {} |\n", cells.join(" | ")));
     }
@@ -1334,6 +1351,8 @@ mod tests {
             frame_refined_pct: None,
             frame_refined_median_mm: None,
             frame_wrong_pct: None,
+            live_within_bound_pct: None,
+            frame_within_bound_pct: None,
         };
         let sevs = [Severity::Mild, Severity::Moderate, Severity::Severe];
         let mut none = row(Factors::ALL, Severity::None, 85.0, 0.5, 0.3);

@@ -640,6 +640,11 @@ pub struct MethodRow {
     /// right.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refined_over_5mm: Option<usize>,
+    /// `refined` frames whose position error is within their stated 95 % bound,
+    /// [`BOUND95_PER_STD`](endoloc_geometry::BOUND95_PER_STD) × `position_std_mm` (our
+    /// method).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refined_within_bound: Option<usize>,
     /// Median error along the colon over the localized frames, mm of mid-line (when the
     /// dataset has a mid-line).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -732,6 +737,7 @@ pub(super) fn write_and_evaluate(
         ms_per_frame: out.ms_per_frame,
         refined_median_position_mm: None,
         refined_over_5mm: None,
+        refined_within_bound: None,
         median_along_mm: None,
         zone_within_one: None,
     };
@@ -752,15 +758,29 @@ pub(super) fn write_and_evaluate(
     let m = &evaluation.metrics;
     row.median_along_mm = m.along_colon_mm.as_ref().map(|a| a.median);
     row.zone_within_one = m.zone_within_one;
-    if frames.is_some() {
-        let mut over = 0;
+    if let Some(records) = &frames {
+        let std_mm: std::collections::HashMap<usize, f64> = records
+            .iter()
+            .filter_map(|r| Some((r.frame, r.position_std_mm?)))
+            .collect();
+        let (mut over, mut within) = (0, 0);
         evaluation.for_each_frame(|f| {
-            if f.status == Some(Status::Refined) && f.position_mm.is_some_and(|e| e > 5.0) {
-                over += 1;
+            if f.status != Some(Status::Refined) {
+                return Ok(());
             }
+            let Some(e) = f.position_mm else {
+                return Ok(());
+            };
+            over += usize::from(e > 5.0);
+            within += usize::from(
+                std_mm
+                    .get(&f.frame)
+                    .is_some_and(|s| e <= endoloc_geometry::BOUND95_PER_STD * s),
+            );
             Ok(())
         })?;
         row.refined_over_5mm = Some(over);
+        row.refined_within_bound = Some(within);
     }
     row.mean_position_mm = Some(m.position_mm.mean);
     row.median_position_mm = Some(m.position_mm.median);

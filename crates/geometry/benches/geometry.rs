@@ -6,7 +6,8 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use endoloc_geometry::synthetic::{PnpSceneConfig, perturb_pose, pnp_scene, standard_normal};
 use endoloc_geometry::{
     Camera, Observation, Pose, RansacConfig, RefineConfig, RegistrationConfig, RobustKernel,
-    TriangulationConfig, Triangulator, localize_pose, ransac_pnp, refine_pose,
+    TriangulationConfig, Triangulator, WallCovarianceConfig, localize_pose, ransac_pnp,
+    refine_pose, wall_covariance,
 };
 use nalgebra::{Point3, Translation3, UnitQuaternion};
 use rand::{Rng, SeedableRng};
@@ -50,12 +51,13 @@ fn bench_refine(c: &mut Criterion) {
         },
         43,
     );
+    let clean_prior = perturb_pose(&clean.t_wc, 5.0, 5.0, &mut ChaCha8Rng::seed_from_u64(1));
     c.bench_function(
         "refine_pose/200 corr, 0.5 px, no outliers, prior 5°/5 mm",
         |b| {
             b.iter(|| {
                 refine_pose(
-                    black_box(&prior),
+                    black_box(&clean_prior),
                     &clean.points_world,
                     &clean.pixels,
                     &clean.camera,
@@ -64,6 +66,29 @@ fn bench_refine(c: &mut Criterion) {
             })
         },
     );
+    // The wall-motion term of the covariance at the refined pose, on its 200 inliers (one
+    // exponential per pair of points): against the refinement itself.
+    let refined = refine_pose(
+        &clean_prior,
+        &clean.points_world,
+        &clean.pixels,
+        &clean.camera,
+        &cfg,
+    )
+    .expect("the clean scene refines");
+    let wall = WallCovarianceConfig::default();
+    c.bench_function("wall_covariance/200 inliers, 0.5 px", |b| {
+        b.iter(|| {
+            wall_covariance(
+                black_box(&refined.t_wc),
+                &clean.points_world,
+                &clean.pixels,
+                &clean.camera,
+                &cfg,
+                &wall,
+            )
+        })
+    });
 }
 
 fn three_view_tracks(n: usize) -> (Camera, Vec<[Observation; 3]>) {

@@ -23,6 +23,7 @@ pub mod so3;
 pub mod synthetic;
 pub mod triangulate;
 pub mod validity;
+pub mod wall_covariance;
 
 #[cfg(test)]
 mod config_tests;
@@ -50,3 +51,4 @@ pub use triangulate::{
     triangulate_track, triangulate_tracks,
 };
 pub use validity::{Reason, Status, ValidityConfig, Verdict};
+pub use wall_covariance::{WallCovariance, WallCovarianceConfig, wall_covariance};

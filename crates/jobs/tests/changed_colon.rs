@@ -257,8 +257,9 @@ fn a_changed_test_pass_is_placed_by_the_unchanged_map_or_flagged() {
     );
 
     // A colon insufflated more or less than when it was mapped: rigid poses land millimetres
-    // off along the lumen, outside their stated bounds; with the colon's scale estimated
-    // (live), closer, and within the bounds they state. (At 160×120 the gain in error is
+    // off along the lumen, half of them outside their stated bounds (which the wall-motion
+    // term widens); with the colon's scale estimated (live), closer, and within the bounds
+    // they state. (At 160×120 the gain in error is
     // 5.2 → 4.3 mm; on the small preset's 320×240 frames 2.0–2.7 → 0.8–0.9 mm.)
     let rigid = root.join("insufflated-rigid");
     let scaled = root.join("insufflated-scaled");

@@ -295,11 +295,12 @@ impl Prediction {
 
     /// Whether this prediction vouches for a pose `t_wc` whose own evidence is weak: it
     /// agrees with the prediction ([`Prediction::compare`]) and is sharp enough for that
-    /// agreement to mean something, its stated 95 % bound (1.96 × `position_std_mm`, mm)
+    /// agreement to mean something, its 95 % bound as a measurement (1.96 ×
+    /// `measurement_std_mm`, mm; [`FrameResult::measurement_std_mm`](crate::FrameResult::measurement_std_mm))
     /// inside the gate's base radius [`Gate::mm`]. A pose less certain than that agrees with
     /// the prediction whether it is right or not. A NaN standard deviation never vouches.
-    pub fn vouches_for(&self, t_wc: &Pose, position_std_mm: f64, gate: &Gate) -> bool {
-        endoloc_geometry::BOUND95_PER_STD * position_std_mm <= gate.mm
+    pub fn vouches_for(&self, t_wc: &Pose, measurement_std_mm: f64, gate: &Gate) -> bool {
+        endoloc_geometry::BOUND95_PER_STD * measurement_std_mm <= gate.mm
             && self.compare(t_wc, gate).agrees
     }
 }

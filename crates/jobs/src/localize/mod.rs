@@ -255,6 +255,15 @@ pub struct LocalizeJob {
     /// also rescues a few wrong poses on an unchanged one). 0: a rigid colon.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().wall_motion_mm))]
     pub wall_motion_mm: f64,
+    /// Keypoint noise of a registration to a wall that did not move, pixels per image axis
+    /// (1σ). The stated uncertainty (`position_std_mm`, `orientation_std_deg`) reads what the
+    /// inliers' reprojection residuals show beyond it as the colon wall having moved since
+    /// the mapping pass — neighbouring map points alike, correlated over 50 mm — and adds the
+    /// pose error such a motion causes, most of which leaves no residual. On an unchanged
+    /// colon it adds (nearly) nothing; set too low for the images it overstates the
+    /// uncertainty, never understates it. 0: the residuals are independent noise only.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = LocalizeJob::default().keypoint_noise_px))]
+    pub keypoint_noise_px: f64,
     /// Refine each `refined` pose once more with the colon's scale about its mid-line (the
     /// training pass's camera path): a colon insufflated more or less than when it was mapped
     /// is the mapped colon scaled about its mid-line, and a rigid pose fitted to it lands
@@ -315,6 +324,7 @@ impl Default for LocalizeJob {
                 RobustKernel::None => 0.0,
             },
             wall_motion_mm: cfg.localize.refine.wall_motion_mm,
+            keypoint_noise_px: cfg.wall_covariance.keypoint_noise_px,
             colon_scale: cfg.colon_scale.map_or(0.0, |c| c.fit.prior_sigma),
             strict: false,
             force: false,
@@ -401,6 +411,7 @@ impl LocalizeJob {
             c
         });
         cfg.localize.refine.wall_motion_mm = self.wall_motion_mm;
+        cfg.wall_covariance.keypoint_noise_px = self.keypoint_noise_px;
         cfg.localize.refine.polish_kernel = if self.polish_px == 0.0 {
             RobustKernel::None
         } else {

@@ -1,7 +1,7 @@
 //! The localizer's settings ([`LocalizerConfig`]), saved with every run.
 
 use endoloc_features::{MatcherConfig, SurfConfig};
-use endoloc_geometry::RegistrationConfig;
+use endoloc_geometry::{RegistrationConfig, WallCovarianceConfig};
 use endoloc_net::TemporalConfig;
 use serde::{Deserialize, Serialize};
 
@@ -89,10 +89,18 @@ pub struct LocalizerConfig {
     pub retry_threshold: Option<f32>,
     /// Calibration of the reported uncertainty: the standard deviations in `frames.csv` are
     /// this many times those of the Gauss-Newton covariance (which sees only the test
-    /// keypoints' noise, not the map points' own error), chosen so that
-    /// 1.96 × `position_std_mm` bounds about 95 % of refined frames' position errors on
-    /// simulated passes.
+    /// keypoints' noise, not the map points' own error) with the wall-motion term
+    /// ([`Self::wall_covariance`]), chosen so that 1.96 × `position_std_mm` bounds about 95 %
+    /// of refined frames' position errors on simulated unchanged passes.
     pub uncertainty_scale: f64,
+    /// The stated uncertainty also counts a wall that moved since the mapping pass
+    /// ([`endoloc_geometry::wall_covariance`](mod@endoloc_geometry::wall_covariance)):
+    /// residuals beyond the keypoint noise are read as motion of the wall, correlated over
+    /// `correlation_mm`, and the pose error such a motion causes is added to the covariance
+    /// (before [`Self::uncertainty_scale`]). On a wall that did not move it adds (nearly)
+    /// nothing; it changes no status by itself, only what reads the stated uncertainty (live,
+    /// the prediction vouching for a weak pose; [`Self::max_std_mm`]).
+    pub wall_covariance: WallCovarianceConfig,
     /// Per frame only (no motion model to check a registration against): the largest
     /// calibrated position standard deviation (as in `frames.csv`) of a `refined` frame with
     /// [`MotionConfig::trusted_inliers`] inliers or more, mm. Above it the frame is
@@ -134,6 +142,7 @@ impl Default for LocalizerConfig {
             classify_tracked: false,
             retry_threshold: None,
             uncertainty_scale: 3.0,
+            wall_covariance: WallCovarianceConfig::default(),
             max_std_mm: f64::INFINITY,
             weak_max_std_mm: f64::INFINITY,
             confirm: ConfirmConfig::default(),

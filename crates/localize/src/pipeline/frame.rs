@@ -132,6 +132,9 @@ impl Localizer {
                 "`wall_motion_mm` {wall} mm; expected a finite value ≥ 0 (0 for a rigid colon)"
             )));
         }
+        cfg.wall_covariance
+            .validate()
+            .map_err(LocalizeError::Config)?;
         if !(cfg.uncertainty_scale.is_finite() && cfg.uncertainty_scale > 0.0) {
             return Err(LocalizeError::Config(format!(
                 "uncertainty_scale = {}; expected a finite value > 0",
@@ -534,13 +537,13 @@ impl Localizer {
             result.verdict.reason,
             Some(Reason::Ambiguous { .. } | Reason::WeaklySupported { .. })
         );
-        let (position_std_mm, orientation_std_deg) = match (&result.estimate, status) {
-            (Some(e), _) if status == Status::Refined || pose_kept => (
-                self.cfg.uncertainty_scale * e.position_sigma_mm(),
-                self.cfg.uncertainty_scale * e.rotation_sigma_deg(),
-            ),
-            _ => (f64::NAN, f64::NAN),
-        };
+        let (position_std_mm, orientation_std_deg, measurement_std_mm) =
+            match (&result.estimate, status) {
+                (Some(e), _) if status == Status::Refined || pose_kept => {
+                    self.stated_std(e, &inlier_points, &inlier_px, &registration.refine)
+                }
+                _ => (f64::NAN, f64::NAN, f64::NAN),
+            };
         Ok(FrameResult {
             zone,
             zone_score,
@@ -550,6 +553,7 @@ impl Localizer {
             source,
             position_std_mm,
             orientation_std_deg,
+            measurement_std_mm,
             correspondences,
             inliers,
             inlier_px,
@@ -558,6 +562,46 @@ impl Localizer {
             reprojection_rms_px: rms,
             times,
         })
+    }
+
+    /// The stated standard deviations of a registered pose — position (mm, along its least
+    /// certain direction) and orientation (degrees) — from its refinement's covariance plus
+    /// the wall-motion term of its inliers `points` ↔ `px`
+    /// ([`LocalizerConfig::wall_covariance`](crate::LocalizerConfig::wall_covariance)), and
+    /// the position's without that term ([`FrameResult::measurement_std_mm`]); all times
+    /// [`LocalizerConfig::uncertainty_scale`](crate::LocalizerConfig::uncertainty_scale).
+    fn stated_std(
+        &self,
+        e: &endoloc_geometry::PoseEstimate,
+        points: &[nalgebra::Point3<f64>],
+        px: &[[f32; 2]],
+        refine: &endoloc_geometry::RefineConfig,
+    ) -> (f64, f64, f64) {
+        let scale = self.cfg.uncertainty_scale;
+        let measurement = scale * e.position_sigma_mm();
+        let pixels: Vec<nalgebra::Point2<f64>> = px
+            .iter()
+            .map(|p| nalgebra::Point2::new(f64::from(p[0]), f64::from(p[1])))
+            .collect();
+        match endoloc_geometry::wall_covariance(
+            &e.t_wc,
+            points,
+            &pixels,
+            &self.camera,
+            refine,
+            &self.cfg.wall_covariance,
+        ) {
+            Some(w) => {
+                let mut total = e.clone();
+                total.covariance += w.covariance;
+                (
+                    scale * total.position_sigma_mm(),
+                    scale * total.rotation_sigma_deg(),
+                    measurement,
+                )
+            }
+            None => (measurement, scale * e.rotation_sigma_deg(), measurement),
+        }
     }
 
     /// Localizes one frame: classify, then [`Localizer::localize_in_zone`].

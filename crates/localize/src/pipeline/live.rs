@@ -320,6 +320,7 @@ impl Localizer {
         r.source = PoseSource::ZoneMedian;
         r.position_std_mm = f64::NAN;
         r.orientation_std_deg = f64::NAN;
+        r.measurement_std_mm = f64::NAN;
     }
 
     /// Registration from the motion model's `prediction` when it is recent
@@ -416,12 +417,13 @@ impl Localizer {
     /// Live: a registration that confirmation found `weakly_supported` (valid, few inliers)
     /// is `refined` when the motion model's `prediction` vouches for it
     /// ([`Prediction::vouches_for`]: it agrees, as a weak registration must at the motion
-    /// gate, and its stated 95 % bound fits inside the gate's base radius); one found
+    /// gate, and its 95 % bound as a measurement, [`FrameResult::measurement_std_mm`], fits
+    /// inside the gate's base radius); one found
     /// `ambiguous` (two poses apart, nearly equally supported) when the better supported
     /// agrees with a recent prediction (at most [`LocalizerConfig::track_frames`](crate::LocalizerConfig::track_frames) old, while
     /// the gate is still narrow): the motion tells the two apart.
     fn disambiguate(&self, mut r: FrameResult, prediction: Option<&Prediction>) -> FrameResult {
-        let std_mm = r.position_std_mm;
+        let std_mm = r.measurement_std_mm;
         let agrees = |t: &Pose| match r.reason {
             Some(Reason::WeaklySupported { .. }) => {
                 prediction.is_some_and(|p| p.vouches_for(t, std_mm, &self.gate))

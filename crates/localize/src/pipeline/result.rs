@@ -80,12 +80,19 @@ pub struct FrameResult {
     /// Where [`FrameResult::t_wc`] comes from.
     pub source: PoseSource,
     /// Calibrated standard deviation of the camera centre along its least certain direction,
-    /// mm ([`LocalizerConfig::uncertainty_scale`](crate::LocalizerConfig::uncertainty_scale) × the Gauss-Newton covariance's); NaN
+    /// mm ([`LocalizerConfig::uncertainty_scale`](crate::LocalizerConfig::uncertainty_scale) ×
+    /// that of the Gauss-Newton covariance plus the wall-motion term,
+    /// [`LocalizerConfig::wall_covariance`](crate::LocalizerConfig::wall_covariance)); NaN
     /// unless refined.
     pub position_std_mm: f64,
     /// Calibrated standard deviation of the orientation about its least certain axis,
     /// degrees; NaN unless refined.
     pub orientation_std_deg: f64,
+    /// The registration's position standard deviation as a measurement, mm: calibrated as
+    /// [`FrameResult::position_std_mm`], without the wall-motion term. Live, the motion
+    /// model's prediction — registered to the same wall, moved or not — checks a weak pose's
+    /// sharpness against it before vouching for the pose. NaN unless refined.
+    pub measurement_std_mm: f64,
     /// Correspondences found by matching.
     pub correspondences: usize,
     /// Inliers of the final estimate.
@@ -124,6 +131,7 @@ impl FrameResult {
             source: PoseSource::None,
             position_std_mm: f64::NAN,
             orientation_std_deg: f64::NAN,
+            measurement_std_mm: f64::NAN,
             correspondences: 0,
             inliers: 0,
             inlier_px: Vec::new(),

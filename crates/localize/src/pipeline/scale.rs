@@ -59,6 +59,7 @@ impl Localizer {
             r.t_wc = Some(e.t_wc);
             r.position_std_mm = self.cfg.uncertainty_scale * e.position_sigma_mm();
             r.orientation_std_deg = self.cfg.uncertainty_scale * e.rotation_sigma_deg();
+            r.measurement_std_mm = r.position_std_mm;
             r.reprojection_rms_px = e.rms_px;
             r.colon_scale = Some(s.scale.scale);
         }
