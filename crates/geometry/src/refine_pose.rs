@@ -300,12 +300,8 @@ impl Problem<'_> {
                 continue;
             };
             // Residual and Jacobian divided by the point's tolerance (1 for a rigid colon).
-            let scale = if self.wall_motion_mm > 0.0 {
-                let z = r_cw.row(2).dot(&p_w.coords.transpose()) + t_cw.z;
-                1.0 / reprojection::wall_motion_scale(self.fx, z, self.wall_motion_mm)
-            } else {
-                1.0
-            };
+            let scale =
+                reprojection::wall_motion_weight(&r_cw, &t_cw, p_w, self.fx, self.wall_motion_mm);
             let e = scale * t.residual.norm();
             let w = kernel.weight(e) * scale * scale;
             cost += kernel.cost(e);

@@ -123,6 +123,25 @@ pub fn wall_motion_scale(focal_px: f64, depth_mm: f64, wall_motion_mm: f64) -> f
     }
 }
 
+/// The weight `1 / wall_motion_scale` of a residual of the map point `p_w` (world, mm) in the
+/// camera `(r_cw, t_cw)`: what the residual and its Jacobians are multiplied by for a wall that
+/// may have moved by `wall_motion_mm` (σ, mm). 1 when `wall_motion_mm` is 0: a rigid colon.
+#[inline]
+pub fn wall_motion_weight(
+    r_cw: &Matrix3<f64>,
+    t_cw: &Vector3<f64>,
+    p_w: &Point3<f64>,
+    focal_px: f64,
+    wall_motion_mm: f64,
+) -> f64 {
+    if wall_motion_mm > 0.0 {
+        let z = r_cw.row(2).dot(&p_w.coords.transpose()) + t_cw.z;
+        1.0 / wall_motion_scale(focal_px, z, wall_motion_mm)
+    } else {
+        1.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -142,12 +142,8 @@ pub fn wall_covariance(
         ) else {
             continue;
         };
-        let s = if refine.wall_motion_mm > 0.0 {
-            let z = r_cw.row(2).dot(&p_w.coords.transpose()) + t_cw.z;
-            1.0 / reprojection::wall_motion_scale(camera.fx, z, refine.wall_motion_mm)
-        } else {
-            1.0
-        };
+        let s =
+            reprojection::wall_motion_weight(&r_cw, &t_cw, p_w, camera.fx, refine.wall_motion_mm);
         let (j, a, r) = (t.d_pose * s, t.d_point * s, t.residual * s);
         h += j.transpose() * j;
         b.push((j.transpose() * a, *p_w));
