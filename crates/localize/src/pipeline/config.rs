@@ -98,8 +98,10 @@ pub struct LocalizerConfig {
     /// residuals beyond the keypoint noise are read as motion of the wall, correlated over
     /// `correlation_mm`, and the pose error such a motion causes is added to the covariance
     /// (before [`Self::uncertainty_scale`]). On a wall that did not move it adds (nearly)
-    /// nothing; it changes no status by itself, only what reads the stated uncertainty (live,
-    /// the prediction vouching for a weak pose; [`Self::max_std_mm`]).
+    /// nothing. It changes no status: live, the prediction vouches for a weak pose by the
+    /// pose's uncertainty without it
+    /// ([`FrameResult::measurement_std_mm`](crate::FrameResult::measurement_std_mm)); only the
+    /// opt-in limits [`Self::max_std_mm`] and [`Self::weak_max_std_mm`] read it.
     pub wall_covariance: WallCovarianceConfig,
     /// Per frame only (no motion model to check a registration against): the largest
     /// calibrated position standard deviation (as in `frames.csv`) of a `refined` frame with
