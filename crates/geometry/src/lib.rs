@@ -39,7 +39,8 @@ pub use pose::{
     Pose, canonical_quaternion, orientation_error_deg, pose_from_matrix, position_error_mm,
 };
 pub use refine_pose::{
-    BOUND95_PER_STD, PoseEstimate, RefineConfig, RefineError, RobustKernel, refine_pose,
+    BOUND95_PER_STD, PoseEstimate, RefineConfig, RefineError, RobustKernel, position_sigma_mm,
+    refine_pose, rotation_sigma_deg,
 };
 pub use refine_radial::{Foot, RadialConfig, RadialFit, refine_radial};
 pub use registration::{Localization, RegistrationConfig, RegistrationError, localize_pose};
@@ -51,4 +52,4 @@ pub use triangulate::{
     triangulate_track, triangulate_tracks,
 };
 pub use validity::{Reason, Status, ValidityConfig, Verdict};
-pub use wall_covariance::{WallCovariance, WallCovarianceConfig, wall_covariance};
+pub use wall_covariance::{WallCovariance, WallCovarianceConfig, WallMotionPool, wall_covariance};

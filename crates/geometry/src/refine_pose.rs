@@ -193,26 +193,38 @@ impl PoseEstimate {
     /// Largest standard deviation of the camera centre along any direction, mm (from
     /// [`PoseEstimate::covariance`]).
     pub fn position_sigma_mm(&self) -> f64 {
-        // Δc = ρ + φ × c = [I, −[c]×] δ for the left perturbation.
-        let c = self.t_wc.translation.vector;
-        let mut j = nalgebra::Matrix3x6::zeros();
-        j.fixed_view_mut::<3, 3>(0, 0)
-            .copy_from(&Matrix3::identity());
-        j.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-so3::hat(&c)));
-        let cov = j * self.covariance * j.transpose();
-        SymmetricEigen::new(cov).eigenvalues.max().max(0.0).sqrt()
+        position_sigma_mm(&self.t_wc, &self.covariance)
     }
 
     /// Largest standard deviation of the orientation about any axis, degrees.
     pub fn rotation_sigma_deg(&self) -> f64 {
-        let cov: Matrix3<f64> = self.covariance.fixed_view::<3, 3>(3, 3).into_owned();
-        SymmetricEigen::new(cov)
-            .eigenvalues
-            .max()
-            .max(0.0)
-            .sqrt()
-            .to_degrees()
+        rotation_sigma_deg(&self.covariance)
     }
+}
+
+/// Largest standard deviation of the camera centre of `t_wc` along any direction, mm, for a
+/// `covariance` of the left perturbation `δ = [ρ; φ]` of `T_wc` (world frame).
+pub fn position_sigma_mm(t_wc: &Pose, covariance: &Matrix6<f64>) -> f64 {
+    // Δc = ρ + φ × c = [I, −[c]×] δ for the left perturbation.
+    let c = t_wc.translation.vector;
+    let mut j = nalgebra::Matrix3x6::zeros();
+    j.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&Matrix3::identity());
+    j.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-so3::hat(&c)));
+    let cov = j * covariance * j.transpose();
+    SymmetricEigen::new(cov).eigenvalues.max().max(0.0).sqrt()
+}
+
+/// Largest standard deviation of the orientation about any axis, degrees, for a `covariance`
+/// of the left perturbation `δ = [ρ; φ]` of `T_wc`.
+pub fn rotation_sigma_deg(covariance: &Matrix6<f64>) -> f64 {
+    let cov: Matrix3<f64> = covariance.fixed_view::<3, 3>(3, 3).into_owned();
+    SymmetricEigen::new(cov)
+        .eigenvalues
+        .max()
+        .max(0.0)
+        .sqrt()
+        .to_degrees()
 }
 
 /// Why a pose could not be refined.

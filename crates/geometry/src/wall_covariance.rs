@@ -18,17 +18,25 @@
 //! E[rᵀr]  = σ_px² (2n − 6) + σ_w² (Σ |Aᵢ|²_F − tr(H⁻¹ M))   (what the field leaves visible)
 //! ```
 //!
-//! `σ_w` is not assumed: each registration estimates it from its own residuals by the second
-//! line (method of moments), taking what exceeds the keypoint noise `σ_px`
-//! ([`WallCovarianceConfig::keypoint_noise_px`]) as wall motion. On a wall that did not move the
-//! residuals are the keypoint noise, `σ_w` comes out (near) 0 and nothing is added; on a
-//! deformed wall the visible part of the motion tells how much of it the pose absorbed. A
-//! `σ_px` set too low for the images reads noise as motion and overstates the uncertainty,
-//! never understates it.
+//! `σ_w` is not assumed: it is read off the residuals by the second line (method of moments),
+//! taking what exceeds the keypoint noise `σ_px` ([`WallCovarianceConfig::keypoint_noise_px`])
+//! as wall motion. On a wall that did not move the residuals are the keypoint noise, `σ_w`
+//! comes out (near) 0 and nothing is added; on a deformed wall the visible part of the motion
+//! tells how much of it the pose absorbed. A `σ_px` set too low for the images reads noise as
+//! motion and overstates the uncertainty, never understates it.
+//!
+//! One registration alone ([`WallCovariance::sigma_mm`]) often shows too little: a few dozen
+//! inliers whose visible share of the motion drowns in their keypoint noise, so the estimate
+//! comes out 0 for a wall that moved. How far the colon changed is a property of the pass, not
+//! of one frame: a stream pools the last registrations' sums ([`WallMotionPool`],
+//! `Σ excess / Σ visible`) and states each pose with the larger of the pooled and its own
+//! estimate.
 //!
 //! Residuals and Jacobians are those of the refinement, divided by each point's
 //! [`wall_motion_scale`](crate::reprojection::wall_motion_scale) when
 //! [`RefineConfig::wall_motion_mm`] is on.
+
+use std::collections::VecDeque;
 
 use nalgebra::{Matrix6, Matrix6x3, Point2, Point3};
 use serde::{Deserialize, Serialize};
@@ -49,6 +57,9 @@ pub struct WallCovarianceConfig {
     /// Correlation length of the wall's motion, mm: map points this far apart moved alike
     /// to `e^(−1/2)`.
     pub correlation_mm: f64,
+    /// Registrations a stream pools to read the wall's motion ([`WallMotionPool`]); 1: each
+    /// registration alone.
+    pub pooled_registrations: usize,
 }
 
 impl Default for WallCovarianceConfig {
@@ -56,11 +67,13 @@ impl Default for WallCovarianceConfig {
     /// unchanged simulated passes at 320×240 (median 1.2 px; a deformed pass's 25th
     /// percentile is 1.5 px). 50 mm: over the simulator's changed colons a correlation of
     /// 10 or 25 mm left more of the errors of shifted and insufflated passes outside their
-    /// bounds, at about the same cost on unchanged ones (docs/RESULTS.md).
+    /// bounds, at about the same cost on unchanged ones. 20 registrations: chosen on two
+    /// simulated colons between 5, 10 and 20, checked on four others (docs/RESULTS.md).
     fn default() -> Self {
         Self {
             keypoint_noise_px: 1.4,
             correlation_mm: 50.0,
+            pooled_registrations: 20,
         }
     }
 }
@@ -88,19 +101,97 @@ impl WallCovarianceConfig {
                 self.correlation_mm
             ));
         }
+        if self.pooled_registrations == 0 {
+            return Err(
+                "`pooled_registrations` 0; expected at least 1 (1: each registration alone)".into(),
+            );
+        }
         Ok(())
     }
 }
 
-/// The wall-motion term of one registration.
+/// The wall-motion term of one registration: what its residuals show of the wall's motion,
+/// and the pose covariance per unit of that motion's variance.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WallCovariance {
-    /// The wall's motion the residuals show, mm (1σ per axis); 0 when they are within the
-    /// keypoint noise.
-    pub sigma_mm: f64,
-    /// Covariance of the left perturbation `δ = [ρ; φ]` of `T_wc` that motion causes (world
-    /// frame; mm² / mm·rad / rad²), to add to the refinement's.
-    pub covariance: Matrix6<f64>,
+    /// `Σ rᵀr − σ_px² (2n − 6)`, px²: the inliers' squared residuals beyond the keypoint
+    /// noise (negative when they show less).
+    pub excess_px2: f64,
+    /// `Σ |Aᵢ|²_F − tr(H⁻¹ M)`, px² per mm²: the squared residuals a wall motion of 1 mm per
+    /// axis leaves visible (the part no pose absorbs).
+    pub visible_px2_per_mm2: f64,
+    /// `H⁻¹ M H⁻¹`: covariance of the left perturbation `δ = [ρ; φ]` of `T_wc` (world frame)
+    /// per mm² of the wall motion's variance.
+    pub unit_covariance: Matrix6<f64>,
+}
+
+impl WallCovariance {
+    /// The wall's motion this registration's residuals show alone, mm (1σ per axis); 0 when
+    /// they are within the keypoint noise.
+    pub fn sigma_mm(&self) -> f64 {
+        sigma_from_sums(self.excess_px2, self.visible_px2_per_mm2)
+    }
+
+    /// The pose covariance a wall motion of `sigma_mm` (1σ per axis) causes (world frame;
+    /// mm² / mm·rad / rad²), to add to the refinement's.
+    pub fn covariance(&self, sigma_mm: f64) -> Matrix6<f64> {
+        self.unit_covariance * (sigma_mm * sigma_mm)
+    }
+}
+
+/// `√(excess / visible)`, 0 unless both are positive.
+fn sigma_from_sums(excess_px2: f64, visible_px2_per_mm2: f64) -> f64 {
+    if visible_px2_per_mm2 > 0.0 && excess_px2 > 0.0 {
+        (excess_px2 / visible_px2_per_mm2).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// The wall's motion read off a stream's recent registrations together: the method of
+/// moments over the sums of their excess and visible parts (see the module docs). An
+/// unchanged pass's excesses scatter about 0 and pool to (near) 0; a changed pass's add up
+/// even where each registration alone shows nothing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WallMotionPool {
+    capacity: usize,
+    recent: VecDeque<(f64, f64)>,
+}
+
+impl WallMotionPool {
+    /// An empty pool of the last `registrations` (at least 1).
+    pub fn new(registrations: usize) -> Self {
+        let capacity = registrations.max(1);
+        Self {
+            capacity,
+            recent: VecDeque::with_capacity(capacity),
+        }
+    }
+
+    /// Adds a registration, forgetting the oldest beyond the pool's size.
+    pub fn push(&mut self, w: &WallCovariance) {
+        if !(w.excess_px2.is_finite() && w.visible_px2_per_mm2.is_finite()) {
+            return;
+        }
+        if self.recent.len() == self.capacity {
+            self.recent.pop_front();
+        }
+        self.recent.push_back((w.excess_px2, w.visible_px2_per_mm2));
+    }
+
+    /// The wall's motion the pooled registrations show, mm (1σ per axis); 0 when empty.
+    pub fn sigma_mm(&self) -> f64 {
+        let (excess, visible) = self
+            .recent
+            .iter()
+            .fold((0.0, 0.0), |(e, v), &(de, dv)| (e + de, v + dv));
+        sigma_from_sums(excess, visible)
+    }
+
+    /// Forgets every registration (a new pass).
+    pub fn clear(&mut self) {
+        self.recent.clear();
+    }
 }
 
 /// The wall-motion term for a pose `t_wc` (camera-to-world, mm) registered to the inlier
@@ -190,15 +281,36 @@ pub fn wall_covariance(
     // Symmetric in exact arithmetic; made so in floating point.
     let m = (m + m.transpose()) * 0.5;
     let dof = (2 * b.len() - 6) as f64;
-    let visible = trace_c - (h_inv * m).trace();
-    let excess = rr - cfg.keypoint_noise_px * cfg.keypoint_noise_px * dof;
-    let sigma2 = if visible > 0.0 && excess > 0.0 {
-        excess / visible
-    } else {
-        0.0
-    };
     Some(WallCovariance {
-        sigma_mm: sigma2.sqrt(),
-        covariance: h_inv * m * h_inv * sigma2,
+        excess_px2: rr - cfg.keypoint_noise_px * cfg.keypoint_noise_px * dof,
+        visible_px2_per_mm2: trace_c - (h_inv * m).trace(),
+        unit_covariance: h_inv * m * h_inv,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pool reads its registrations' sums together and forgets the oldest beyond its size.
+    #[test]
+    fn the_pool_sums_its_registrations_and_forgets_the_oldest() {
+        let registration = |excess_px2| WallCovariance {
+            excess_px2,
+            visible_px2_per_mm2: 1000.0,
+            unit_covariance: Matrix6::zeros(),
+        };
+        let (moved, still) = (registration(40.0), registration(-5.0));
+        let mut pool = WallMotionPool::new(3);
+        assert_eq!(pool.sigma_mm(), 0.0);
+        pool.push(&moved);
+        assert!((pool.sigma_mm() - 0.2).abs() < 1e-12);
+        // Alone, a still registration shows nothing; pooled with the moved one, (40 − 10) / 3000.
+        pool.push(&still);
+        pool.push(&still);
+        assert_eq!(still.sigma_mm(), 0.0);
+        assert!((pool.sigma_mm() - 0.1).abs() < 1e-12);
+        pool.push(&still);
+        assert_eq!(pool.sigma_mm(), 0.0);
+    }
 }

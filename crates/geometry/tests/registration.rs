@@ -3,8 +3,8 @@
 use endoloc_geometry::synthetic::{PnpSceneConfig, perturb_pose, pnp_scene};
 use endoloc_geometry::{
     PoseEstimate, RansacConfig, Reason, RefineConfig, RegistrationConfig, RegistrationError,
-    Status, WallCovarianceConfig, localize_pose, orientation_error_deg, position_error_mm,
-    ransac_pnp, refine_pose, wall_covariance,
+    Status, WallCovarianceConfig, WallMotionPool, localize_pose, orientation_error_deg,
+    position_error_mm, ransac_pnp, refine_pose, wall_covariance,
 };
 use nalgebra::{Point2, Point3};
 use rand::{Rng, SeedableRng};
@@ -281,12 +281,13 @@ fn wall_covariance_covers_a_moved_wall_and_spares_a_still_one() {
     let sphere = |e: &PoseEstimate, extra: Option<&endoloc_geometry::WallCovariance>| {
         let mut e = e.clone();
         if let Some(w) = extra {
-            e.covariance += w.covariance;
+            e.covariance += w.covariance(w.sigma_mm());
         }
         7.81f64.sqrt() * e.position_sigma_mm()
     };
     let scenes = 20;
     let (mut covered_plain, mut covered_wall) = (0, 0);
+    let mut pool = WallMotionPool::new(scenes as usize);
     for seed in 0..scenes {
         let s = pnp_scene(
             &PnpSceneConfig {
@@ -340,9 +341,16 @@ fn wall_covariance_covers_a_moved_wall_and_spares_a_still_one() {
         let error = position_error_mm(&e.t_wc, &s.t_wc);
         covered_plain += usize::from(error <= sphere(&e, None));
         covered_wall += usize::from(error <= sphere(&e, Some(&w)));
+        pool.push(&w);
     }
     assert!(
         covered_wall >= 16 && covered_plain <= 10,
         "scenes whose error the 95 % sphere covers: {covered_plain} → {covered_wall} of {scenes}"
+    );
+    // Pooled, the scenes read the field's 0.1 mm.
+    assert!(
+        (0.07..0.14).contains(&pool.sigma_mm()),
+        "pooled wall motion {:.3} mm; the field's is 0.1 mm",
+        pool.sigma_mm()
     );
 }

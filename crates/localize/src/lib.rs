@@ -32,8 +32,8 @@ pub use map::{
 };
 pub use motion::{Gate, MotionConfig, Prediction, Track};
 pub use pipeline::{
-    FrameResult, LiveState, Localizer, LocalizerConfig, PoseSource, RETRY_THRESHOLD_FACTOR,
-    RetryFeatures, StageTimes, TEST_KEYPOINT_BUDGET, TEST_THRESHOLD_FACTOR,
+    FrameResult, LiveState, Localizer, LocalizerConfig, PoseSource, PoseUncertainty,
+    RETRY_THRESHOLD_FACTOR, RetryFeatures, StageTimes, TEST_KEYPOINT_BUDGET, TEST_THRESHOLD_FACTOR,
 };
 
 /// Errors of the localizer.

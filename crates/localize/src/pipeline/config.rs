@@ -98,7 +98,9 @@ pub struct LocalizerConfig {
     /// residuals beyond the keypoint noise are read as motion of the wall, correlated over
     /// `correlation_mm`, and the pose error such a motion causes is added to the covariance
     /// (before [`Self::uncertainty_scale`]). On a wall that did not move it adds (nearly)
-    /// nothing. It changes no status: live, the prediction vouches for a weak pose by the
+    /// nothing. Live, the wall's motion is read off the stream's last
+    /// [`WallCovarianceConfig::pooled_registrations`] registrations together, and a pose is
+    /// stated with the larger of that and what its own residuals show. It changes no status: live, the prediction vouches for a weak pose by the
     /// pose's uncertainty without it
     /// ([`FrameResult::measurement_std_mm`](crate::FrameResult::measurement_std_mm)); only the
     /// opt-in limits [`Self::max_std_mm`] and [`Self::weak_max_std_mm`] read it.

@@ -15,7 +15,7 @@ use crate::map::{Map, MapPoint};
 use crate::motion::Gate;
 
 use super::config::LocalizerConfig;
-use super::result::{FrameResult, PoseSource, StageTimes};
+use super::result::{FrameResult, PoseSource, PoseUncertainty, StageTimes};
 
 /// A ready-to-run localizer: classifier, maps and settings.
 pub struct Localizer {
@@ -537,23 +537,23 @@ impl Localizer {
             result.verdict.reason,
             Some(Reason::Ambiguous { .. } | Reason::WeaklySupported { .. })
         );
-        let (position_std_mm, orientation_std_deg, measurement_std_mm) =
-            match (&result.estimate, status) {
-                (Some(e), _) if status == Status::Refined || pose_kept => {
-                    self.stated_std(e, &inlier_points, &inlier_px, &registration.refine)
-                }
-                _ => (f64::NAN, f64::NAN, f64::NAN),
-            };
-        Ok(FrameResult {
+        let uncertainty = match (&result.estimate, status) {
+            (Some(e), _) if status == Status::Refined || pose_kept => {
+                Some(self.uncertainty(e, &inlier_points, &inlier_px, &registration.refine))
+            }
+            _ => None,
+        };
+        let mut r = FrameResult {
             zone,
             zone_score,
             status,
             reason: result.verdict.reason,
             t_wc: result.t_wc,
             source,
-            position_std_mm,
-            orientation_std_deg,
-            measurement_std_mm,
+            position_std_mm: f64::NAN,
+            orientation_std_deg: f64::NAN,
+            measurement_std_mm: f64::NAN,
+            uncertainty,
             correspondences,
             inliers,
             inlier_px,
@@ -561,47 +561,66 @@ impl Localizer {
             colon_scale: None,
             reprojection_rms_px: rms,
             times,
-        })
+        };
+        let own = uncertainty
+            .and_then(|u| u.wall)
+            .map_or(0.0, |w| w.sigma_mm());
+        self.state_uncertainty(&mut r, own);
+        Ok(r)
     }
 
-    /// The stated standard deviations of a registered pose — position (mm, along its least
-    /// certain direction) and orientation (degrees) — from its refinement's covariance plus
-    /// the wall-motion term of its inliers `points` ↔ `px`
-    /// ([`LocalizerConfig::wall_covariance`](crate::LocalizerConfig::wall_covariance)), and
-    /// the position's without that term ([`FrameResult::measurement_std_mm`]); all times
-    /// [`LocalizerConfig::uncertainty_scale`](crate::LocalizerConfig::uncertainty_scale).
-    fn stated_std(
+    /// What the stated uncertainty of a registered pose `e` is made of: its refinement's
+    /// covariance and the wall-motion term of its inliers `points` ↔ `px`
+    /// ([`LocalizerConfig::wall_covariance`](crate::LocalizerConfig::wall_covariance)).
+    fn uncertainty(
         &self,
         e: &endoloc_geometry::PoseEstimate,
         points: &[nalgebra::Point3<f64>],
         px: &[[f32; 2]],
         refine: &endoloc_geometry::RefineConfig,
-    ) -> (f64, f64, f64) {
-        let scale = self.cfg.uncertainty_scale;
-        let measurement = scale * e.position_sigma_mm();
+    ) -> PoseUncertainty {
         let pixels: Vec<nalgebra::Point2<f64>> = px
             .iter()
             .map(|p| nalgebra::Point2::new(f64::from(p[0]), f64::from(p[1])))
             .collect();
-        match endoloc_geometry::wall_covariance(
+        let wall = endoloc_geometry::wall_covariance(
             &e.t_wc,
             points,
             &pixels,
             &self.camera,
             refine,
             &self.cfg.wall_covariance,
-        ) {
-            Some(w) => {
-                let mut total = e.clone();
-                total.covariance += w.covariance;
-                (
-                    scale * total.position_sigma_mm(),
-                    scale * total.rotation_sigma_deg(),
-                    measurement,
-                )
-            }
-            None => (measurement, scale * e.rotation_sigma_deg(), measurement),
+        );
+        PoseUncertainty {
+            t_wc: e.t_wc,
+            covariance: e.covariance,
+            wall,
         }
+    }
+
+    /// States `r`'s uncertainty from [`FrameResult::uncertainty`] with a wall motion of
+    /// `wall_sigma_mm` (1σ per axis): the position (mm, along its least certain direction) and
+    /// orientation (degrees) standard deviations with the wall-motion term, the position's
+    /// without it ([`FrameResult::measurement_std_mm`]); all times
+    /// [`LocalizerConfig::uncertainty_scale`](crate::LocalizerConfig::uncertainty_scale). NaN
+    /// without a registration to state.
+    pub(super) fn state_uncertainty(&self, r: &mut FrameResult, wall_sigma_mm: f64) {
+        let Some(u) = &r.uncertainty else {
+            (
+                r.position_std_mm,
+                r.orientation_std_deg,
+                r.measurement_std_mm,
+            ) = (f64::NAN, f64::NAN, f64::NAN);
+            return;
+        };
+        let scale = self.cfg.uncertainty_scale;
+        let total = match &u.wall {
+            Some(w) => u.covariance + w.covariance(wall_sigma_mm),
+            None => u.covariance,
+        };
+        r.position_std_mm = scale * endoloc_geometry::position_sigma_mm(&u.t_wc, &total);
+        r.orientation_std_deg = scale * endoloc_geometry::rotation_sigma_deg(&total);
+        r.measurement_std_mm = scale * endoloc_geometry::position_sigma_mm(&u.t_wc, &u.covariance);
     }
 
     /// Localizes one frame: classify, then [`Localizer::localize_in_zone`].

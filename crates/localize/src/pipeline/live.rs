@@ -5,7 +5,7 @@ use std::borrow::Cow;
 use std::time::Instant;
 
 use endoloc_features::Feature;
-use endoloc_geometry::{Pose, Reason, Status};
+use endoloc_geometry::{Pose, Reason, Status, WallMotionPool};
 use endoloc_net::{TemporalFilter, TrackFilter, ZonePrediction};
 
 use crate::LocalizeError;
@@ -49,6 +49,9 @@ pub struct LiveState {
     pending: Option<(usize, Pose)>,
     /// The colon's scale followed so far, when the colon-scale step is on.
     scale: Option<ScaleTrack>,
+    /// The wall's motion the recent registrations show together
+    /// ([`WallCovarianceConfig::pooled_registrations`](endoloc_geometry::WallCovarianceConfig::pooled_registrations)).
+    wall: WallMotionPool,
     /// Frames seen so far.
     frame: usize,
 }
@@ -68,6 +71,7 @@ impl LiveState {
         self.motion.clear();
         self.pending = None;
         self.scale = None;
+        self.wall.clear();
         self.frame = 0;
     }
 }
@@ -83,6 +87,7 @@ impl Localizer {
             motion: Track::default(),
             pending: None,
             scale: None,
+            wall: WallMotionPool::new(self.cfg.wall_covariance.pooled_registrations),
             frame: 0,
         }
     }
@@ -272,8 +277,22 @@ impl Localizer {
             r.t_wc = Some(p.t_wc);
             r.source = PoseSource::Predicted;
         }
+        self.pool_wall_motion(state, &mut r);
         self.remember(state, &r, frame);
         Ok(r)
+    }
+
+    /// Adds a registration reported with its uncertainty to the stream's wall-motion pool and
+    /// states that uncertainty with the larger of the pooled wall motion and the
+    /// registration's own: how far the colon changed is a property of the pass, which one
+    /// registration's residuals often show too little of.
+    fn pool_wall_motion(&self, state: &mut LiveState, r: &mut FrameResult) {
+        let Some(wall) = r.uncertainty.and_then(|u| u.wall) else {
+            return;
+        };
+        state.wall.push(&wall);
+        let sigma_mm = state.wall.sigma_mm().max(wall.sigma_mm());
+        self.state_uncertainty(r, sigma_mm);
     }
 
     /// The motion gate: a refined registration `t_wc` of `frame` stays `refined` when it has
@@ -318,9 +337,8 @@ impl Localizer {
         });
         r.t_wc = Some(self.classifier.zones().zones[r.zone].median_pose);
         r.source = PoseSource::ZoneMedian;
-        r.position_std_mm = f64::NAN;
-        r.orientation_std_deg = f64::NAN;
-        r.measurement_std_mm = f64::NAN;
+        r.uncertainty = None;
+        self.state_uncertainty(r, 0.0);
     }
 
     /// Registration from the motion model's `prediction` when it is recent

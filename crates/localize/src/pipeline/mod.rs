@@ -40,4 +40,4 @@ pub use config::{
 };
 pub use frame::{Localizer, RetryFeatures};
 pub use live::LiveState;
-pub use result::{FrameResult, PoseSource, StageTimes};
+pub use result::{FrameResult, PoseSource, PoseUncertainty, StageTimes};

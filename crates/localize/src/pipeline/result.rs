@@ -1,7 +1,7 @@
 //! What the localizer says of one frame: pose, status, where the pose came from, times.
 
-use endoloc_geometry::{Pose, Reason, Status};
-use nalgebra::Point3;
+use endoloc_geometry::{Pose, Reason, Status, WallCovariance};
+use nalgebra::{Matrix6, Point3};
 use serde::{Deserialize, Serialize};
 
 /// Time spent in each stage of one frame, milliseconds.
@@ -61,6 +61,22 @@ impl std::fmt::Display for PoseSource {
     }
 }
 
+/// What a registered pose's stated uncertainty is made of, before
+/// [`LocalizerConfig::uncertainty_scale`](crate::LocalizerConfig::uncertainty_scale).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseUncertainty {
+    /// The registered pose `T_wc` (mm) the covariances are of: the frame's reported pose,
+    /// unless live reports the motion model's prediction for a pose it does not trust.
+    pub t_wc: Pose,
+    /// The refinement's covariance of the left perturbation `δ = [ρ; φ]` of `T_wc` (world
+    /// frame; mm² / mm·rad / rad²), from independent residuals.
+    pub covariance: Matrix6<f64>,
+    /// The wall-motion term's parts
+    /// ([`LocalizerConfig::wall_covariance`](crate::LocalizerConfig::wall_covariance)); `None`
+    /// when it is off or the inliers do not allow it.
+    pub wall: Option<WallCovariance>,
+}
+
 /// The outcome for one frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrameResult {
@@ -82,8 +98,9 @@ pub struct FrameResult {
     /// Calibrated standard deviation of the camera centre along its least certain direction,
     /// mm ([`LocalizerConfig::uncertainty_scale`](crate::LocalizerConfig::uncertainty_scale) ×
     /// that of the Gauss-Newton covariance plus the wall-motion term,
-    /// [`LocalizerConfig::wall_covariance`](crate::LocalizerConfig::wall_covariance)); NaN
-    /// unless refined.
+    /// [`LocalizerConfig::wall_covariance`](crate::LocalizerConfig::wall_covariance): per frame
+    /// with the wall's motion this registration shows, live with the larger of that and what
+    /// the stream's recent registrations show together); NaN unless refined.
     pub position_std_mm: f64,
     /// Calibrated standard deviation of the orientation about its least certain axis,
     /// degrees; NaN unless refined.
@@ -93,6 +110,10 @@ pub struct FrameResult {
     /// model's prediction — registered to the same wall, moved or not — checks a weak pose's
     /// sharpness against it before vouching for the pose. NaN unless refined.
     pub measurement_std_mm: f64,
+    /// What [`FrameResult::position_std_mm`] and [`FrameResult::orientation_std_deg`] are
+    /// made of; `None` exactly when they are NaN, or when another model states them (the
+    /// colon-scale step).
+    pub uncertainty: Option<PoseUncertainty>,
     /// Correspondences found by matching.
     pub correspondences: usize,
     /// Inliers of the final estimate.
@@ -132,6 +153,7 @@ impl FrameResult {
             position_std_mm: f64::NAN,
             orientation_std_deg: f64::NAN,
             measurement_std_mm: f64::NAN,
+            uncertainty: None,
             correspondences: 0,
             inliers: 0,
             inlier_px: Vec::new(),

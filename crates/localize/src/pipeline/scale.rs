@@ -60,6 +60,8 @@ impl Localizer {
             r.position_std_mm = self.cfg.uncertainty_scale * e.position_sigma_mm();
             r.orientation_std_deg = self.cfg.uncertainty_scale * e.rotation_sigma_deg();
             r.measurement_std_mm = r.position_std_mm;
+            // Stated by the scaled model, which the wall-motion term does not extend.
+            r.uncertainty = None;
             r.reprojection_rms_px = e.rms_px;
             r.colon_scale = Some(s.scale.scale);
         }
