@@ -100,10 +100,10 @@ pub struct LocalizerConfig {
     /// (before [`Self::uncertainty_scale`]). On a wall that did not move it adds (nearly)
     /// nothing. Live, the wall's motion is read off the stream's last
     /// [`WallCovarianceConfig::pooled_registrations`] registrations together, and a pose is
-    /// stated with the larger of that and what its own residuals show. It changes no status: live, the prediction vouches for a weak pose by the
-    /// pose's uncertainty without it
+    /// stated with the larger of that and what its own residuals show. It changes no status:
+    /// live, the prediction vouches for a weak pose by the pose's uncertainty without it
     /// ([`FrameResult::measurement_std_mm`](crate::FrameResult::measurement_std_mm)); only the
-    /// opt-in limits [`Self::max_std_mm`] and [`Self::weak_max_std_mm`] read it.
+    /// opt-in per-frame limits [`Self::max_std_mm`] and [`Self::weak_max_std_mm`] read it.
     pub wall_covariance: WallCovarianceConfig,
     /// Per frame only (no motion model to check a registration against): the largest
     /// calibrated position standard deviation (as in `frames.csv`) of a `refined` frame with
